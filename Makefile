@@ -1,0 +1,31 @@
+# Glossy: every target creates .venv (pinned requirements.txt) when missing.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.glossy-requirements.txt
+
+.PHONY: demo test lint extension bench clean
+
+$(STAMP): requirements.txt
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	@cp requirements.txt $(STAMP)
+
+demo: $(STAMP)
+	$(PY) tools/demo.py
+
+test: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(PY) -m pytest
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+extension: $(STAMP)
+	$(PY) tools/build_extension.py
+
+bench: $(STAMP)
+	$(PY) benchmarks/envmap.py
+
+clean:
+	rm -rf build out wheels .pytest_cache .ruff_cache

@@ -1,0 +1,7 @@
+"""``python -m bake``: see bake/cli.py."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

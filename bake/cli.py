@@ -1,0 +1,181 @@
+"""Command line of the baker: ``python -m bake <command> ...`` (DESIGN.md).
+
+Every error a user can cause ends as one line on stderr and exit status 2,
+with no output file left behind (outputs are written atomically, after all
+checks). Progress goes to stderr; the list of files written to stdout.
+"""
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__, exr
+from .envmap import LAYOUTS, convert, get_layout, mip
+from .envmap.convert import supersampling
+from .errors import BakeError
+from .progress import LinePrinter
+
+__all__ = ["main"]
+
+#: Work (sub-samples) above which the command line shows a progress line.
+PROGRESS_THRESHOLD = 1 << 20
+
+LAYOUT_NOTES = {
+    "latlong": "Blender Environment Texture: u = 0.5 - atan2(y, x) / 2pi, row 0 = zenith (+Z)",
+    "cube": "OpenGL cube faces in glTF's Y-up frame (x, z, -y); strip N x 6N, faces "
+    "+X', -X', +Y', -Y', +Z', -Z' = Blender +X, -X, +Z, -Z, -Y, +Y",
+    "paraboloid": "dual paraboloid, front (left half) faces +Z, back (right half) -Z; "
+    "extended [-1, 1]^2 domain; s along +X, t along +Y (up)",
+    "sphere": "sphere map of a mirror ball seen from -Y, +Z up, +X right; centre = -Y, rim = +Y",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error as one line."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _guess_layout(shape, meta, path):
+    declared = meta.get("layout")
+    if declared in LAYOUTS:
+        return declared
+    height, width = shape
+    if width == 6 * height:
+        return "cube"
+    if width == height:
+        return "sphere"
+    if width == 2 * height:
+        return "latlong"
+    raise BakeError(
+        f"{path}: cannot tell the layout of a {height}x{width} image; pass --from"
+    )
+
+
+def _read_rgb(path, sanitize):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image, meta = exr.read(path, nonfinite="sanitize" if sanitize else "error")
+    for warning in caught:
+        print(f"warning: {warning.message}", file=sys.stderr)
+    if isinstance(image, dict):
+        if "" not in image:
+            raise BakeError(f"{path}: several layers and no unnamed one ({', '.join(image)})")
+        image = image[""]
+    if image.shape[2] == 4:
+        image = image[:, :, :3]
+    return image, meta
+
+
+def _progress_for(work, quiet):
+    return None if quiet or work < PROGRESS_THRESHOLD else LinePrinter()
+
+
+def _meta(args, layout, shape, extra=None):
+    meta = {
+        "generator": f"glossy-bake {__version__}",
+        "layout": layout,
+        "size": int(get_layout(layout).size_of(shape)),
+        "convention": LAYOUT_NOTES[layout],
+        "source": Path(args.input).name,
+    }
+    meta.update(extra or {})
+    return meta
+
+
+def _check_output(path):
+    path = Path(path)
+    if path.suffix.lower() != ".exr":
+        raise BakeError(f"{path}: output file name must end in .exr")
+    if not path.parent.is_dir():
+        raise BakeError(f"{path.parent}: output folder does not exist")
+    if path.is_dir():
+        raise BakeError(f"{path}: is a directory")
+    return path
+
+
+def cmd_convert(args):
+    output = _check_output(args.output)
+    target = get_layout(args.to)
+    shape = target.shape(args.size)
+    image, meta = _read_rgb(args.input, args.sanitize)
+    source = args.source or _guess_layout(image.shape[:2], meta, args.input)
+    source_layout = get_layout(source)
+    source_layout.check_image(image)
+    k = args.samples or supersampling(source_layout, image.shape[:2], target, shape)
+    progress = _progress_for(shape[0] * shape[1] * k * k, args.quiet)
+    result = convert(image, source, args.to, args.size, samples=k, progress=progress)
+    extra = {"source_layout": source, "samples_per_side": k}
+    exr.write(output, result, _meta(args, args.to, shape, extra))
+    print(f"wrote {output} ({args.to}, {shape[0]}x{shape[1]}, {result.shape[2]} channels)")
+
+
+def cmd_mip(args):
+    output = _check_output(args.output)
+    image, meta = _read_rgb(args.input, args.sanitize)
+    layout = args.layout or _guess_layout(image.shape[:2], meta, args.input)
+    progress = _progress_for(image.shape[0] * image.shape[1] * 4, args.quiet)
+    levels = mip.pyramid(image, layout, args.filter, args.levels, progress=progress)
+    stem = output.with_suffix("")
+    paths = [stem.with_name(f"{stem.name}.mip{index}.exr") for index in range(len(levels))]
+    for index, (path, level) in enumerate(zip(paths, levels, strict=True)):
+        extra = {"mip_level": index, "mip_filter": args.filter, "mip_levels": len(levels)}
+        exr.write(path, level, _meta(args, layout, level.shape[:2], extra))
+        print(f"wrote {path} ({layout} level {index}, {level.shape[0]}x{level.shape[1]})")
+
+
+def _build_parser():
+    parser = _Parser(prog="python -m bake", description="Glossy's pure-NumPy baker.")
+    parser.add_argument("--version", action="version", version=__version__)
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    layouts = list(LAYOUTS)
+    p = commands.add_parser("convert", help="convert an environment map between layouts")
+    p.add_argument("input", help="input EXR (lat-long, cube strip, paraboloid or sphere map)")
+    p.add_argument("--to", required=True, choices=layouts, help="target layout")
+    p.add_argument("--from", dest="source", choices=layouts,
+                   help="input layout (default: from the file's metadata or its shape)")
+    p.add_argument("--size", required=True, type=int, help="target size N (see DESIGN.md)")
+    p.add_argument("--samples", type=int, help="sub-samples per texel side (default: automatic)")
+    p.add_argument("-o", "--output", required=True, help="output EXR")
+    p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_convert)
+
+    p = commands.add_parser("mip", help="solid-angle-weighted MIP pyramid of a cube/lat-long map")
+    p.add_argument("input", help="input EXR (cube strip or lat-long)")
+    p.add_argument("--layout", choices=["cube", "latlong"], help="input layout (default: guess)")
+    p.add_argument("--filter", default="gauss4", choices=list(mip.FILTERS), help="MIP filter")
+    p.add_argument("--levels", type=int, help="number of levels (default: all)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output name; level k goes to NAME.mip<k>.exr")
+    p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_mip)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = _build_parser()
+    args = parser.parse_args(argv)
+    try:
+        args.run(args)
+    except BakeError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: out of memory (try a smaller --size)", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted; no output written", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    np.seterr(all="ignore")
+    sys.exit(main())

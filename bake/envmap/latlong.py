@@ -1,0 +1,138 @@
+"""Lat-long (equirectangular) maps in the convention of Blender's Environment Texture.
+
+For a direction d (world space, +Z up), exactly as Cycles' Environment
+Texture node (shared/docs/CYCLES.md):
+
+    u = 0.5 - atan2(d_y, d_x) / (2 pi),   v = 1 - acos(d_z) / pi
+
+with v = 0 the bottom image row, so row 0 of the array (first EXR row) is the
+zenith. u = 0.5 is +X, u = 0.25 is +Y, u = 0.75 is -Y. A map of size N has
+shape (H, W) = (N, 2N); any H, W >= 2 is accepted as input.
+"""
+
+
+import numpy as np
+
+from ..errors import BakeError
+from .grid import bilinear, gather_padded
+from .layout import MAX_TEXELS, MIN_SIZE, Layout
+
+__all__ = ["LatLong"]
+
+
+class LatLong(Layout):
+    name = "latlong"
+    faces = 1
+
+    def _shape(self, size):
+        return size, 2 * size
+
+    def shape(self, size):
+        return self._shape(self.check_size(size))
+
+    def size_of(self, shape):
+        height, width = shape
+        if height < 1 or width < MIN_SIZE:
+            raise BakeError(f"lat-long image must be at least 1x2 texels, got {height}x{width}")
+        if height * width > MAX_TEXELS:
+            raise BakeError(f"lat-long image of {height}x{width} texels is too large")
+        return height
+
+    def directions(self, x, y, shape):
+        height, width = shape
+        theta = np.pi * np.asarray(y, dtype=np.float64) / height
+        phi = np.pi - 2.0 * np.pi * np.asarray(x, dtype=np.float64) / width
+        sin_theta = np.sin(theta)
+        return np.stack([sin_theta * np.cos(phi), sin_theta * np.sin(phi), np.cos(theta)], -1)
+
+    def coords(self, directions, shape):
+        height, width = shape
+        d = np.asarray(directions, dtype=np.float64)
+        u = 0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2.0 * np.pi)
+        x = np.mod(u, 1.0) * width
+        y = np.arccos(np.clip(d[..., 2], -1.0, 1.0)) / np.pi * height
+        return x, y
+
+    def jacobian(self, x, y, shape):
+        height, width = shape
+        theta = np.pi * np.asarray(y, dtype=np.float64) / height
+        return np.sin(theta) * (np.pi / height) * (2.0 * np.pi / width) + 0.0 * np.asarray(x)
+
+    def solid_angles(self, shape):
+        height, width = shape
+        cos_edges = np.cos(np.pi * np.arange(height + 1) / height)
+        rows = (cos_edges[:-1] - cos_edges[1:]) * (2.0 * np.pi / width)
+        return np.repeat(rows[:, None], width, axis=1)
+
+    def pad_index(self, shape, border: int) -> np.ndarray:
+        """(1, H + 2b, W + 2b) flat indices of a padded copy.
+
+        Columns wrap around (the u seam); a row above row 0 is the row below it
+        seen across the pole: row -1 - r holds row r shifted by W/2 (exact for
+        even W), and likewise at the bottom pole.
+        """
+        height, width = shape
+        rows = np.arange(-border, height + border)
+        cols = np.arange(-border, width + border)
+        across = (rows < 0) | (rows >= height)
+        real_rows = np.where(rows < 0, -1 - rows, np.where(rows >= height, 2 * height - 1 - rows, rows))
+        real_rows = np.clip(real_rows, 0, height - 1)
+        shift = np.where(across, width // 2, 0)
+        real_cols = np.mod(cols[None, :] + shift[:, None], width)
+        return (real_rows[:, None] * width + real_cols)[None]
+
+    def face_coords(self, directions, shape):
+        x, y = self.coords(directions, shape)
+        # Coordinates in the padded stack (border 1).
+        return np.zeros(np.shape(x), dtype=np.intp), x + 0.5, y + 0.5
+
+    def sampler(self, image, spacing=None):
+        """Bilinear lookups continuous across the u seam and through both poles.
+
+        With ``spacing`` (radians), rows whose texels are narrower than the
+        sample spacing (towards the poles) are first box-filtered along
+        longitude to that width, so sparse samples do not alias there.
+        """
+        image = self.check_image(image)
+        shape = image.shape[:2]
+        if spacing is not None:
+            image = self._prefilter_rows(image, spacing)
+        padded = gather_padded(image[None], self.pad_index(shape, 1), fill_corners=False)
+
+        def sample(directions):
+            face, px, py = self.face_coords(directions, shape)
+            return bilinear(padded, face, px, py)
+
+        return sample
+
+    @staticmethod
+    def _prefilter_rows(image, spacing):
+        height, width = image.shape[:2]
+        theta = np.pi * (np.arange(height) + 0.5) / height
+        texel_width = np.maximum(np.sin(theta), 1e-12) * 2.0 * np.pi / width
+        half = np.floor((spacing / texel_width - 1.0) / 2.0).astype(np.intp)
+        half = np.clip(half, 0, (width - 1) // 2)
+        if not half.any():
+            return image
+        out = image.copy()
+        rows = np.nonzero(half)[0]
+        block = image[rows].astype(np.float64)
+        cumulative = np.concatenate(
+            [np.zeros((rows.size, 1, image.shape[2])), np.cumsum(block, axis=1)], axis=1
+        )
+        total = cumulative[:, -1:, :]
+        h = half[rows][:, None]
+        cols = np.arange(width)[None, :]
+        start, stop = cols - h, cols + h + 1
+
+        def prefix(index):
+            wraps = np.floor_divide(index, width)
+            return np.take_along_axis(
+                cumulative, np.mod(index, width)[:, :, None], axis=1
+            ) + wraps[:, :, None] * total
+
+        out[rows] = ((prefix(stop) - prefix(start)) / (2 * h + 1)[:, :, None]).astype(image.dtype)
+        return out
+
+
+LATLONG = LatLong()

@@ -1,0 +1,246 @@
+"""Float OpenEXR files through the ``OpenEXR`` package (3.x bindings).
+
+Images are linear float32 arrays of shape (H, W, C), row 0 at the top, as
+OpenEXR stores them. C is 1 (channel ``Y``), 3 (``R, G, B``) or 4 (``R, G, B,
+A``). A file may hold several layers: channels ``<layer>.R``, ``<layer>.G``,
+... (Blender's and Glossy's convention, e.g. ``slice.3.R``); they are read and
+written as a dict ``{layer: array}`` where ``""`` is the unnamed layer.
+
+Metadata is a JSON-serialisable dict stored in the header attribute
+``glossy`` (a string), so every baked file carries its parameters.
+
+Writes are atomic: the file is written beside the target under a temporary
+name and renamed over it, so an interrupted write never leaves a half file.
+Any compression OpenEXR supports is read (Blender's bundled HDRIs are DWAB);
+files are written with ZIP compression, which every EXR reader handles.
+"""
+
+import contextlib
+import json
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BakeError
+
+__all__ = ["read", "write", "read_header", "EXR_MAGIC", "META_ATTRIBUTE"]
+
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+META_ATTRIBUTE = "glossy"
+_CHANNELS_BY_COUNT = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
+
+
+def _import_openexr():
+    try:
+        import OpenEXR
+    except ImportError as error:  # pragma: no cover - depends on the install
+        raise BakeError(
+            "the OpenEXR Python package is missing (pip install OpenEXR==3.4.17)"
+        ) from error
+    return OpenEXR
+
+
+@contextlib.contextmanager
+def _quiet_native():
+    """Silence the C library's own prints on fds 1 and 2 (errors become exceptions)."""
+    saved = []
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+    except OSError:  # pragma: no cover
+        yield
+        return
+    try:
+        for fd in (1, 2):
+            try:
+                saved.append((fd, os.dup(fd)))
+                os.dup2(devnull, fd)
+            except OSError:  # pragma: no cover - fd not open (embedded use)
+                pass
+        yield
+    finally:
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(devnull)
+
+
+def _check_readable(path: Path) -> None:
+    if not path.exists():
+        raise BakeError(f"{path}: no such file")
+    if path.is_dir():
+        raise BakeError(f"{path}: is a directory, not an EXR file")
+    try:
+        with open(path, "rb") as handle:
+            magic = handle.read(4)
+    except OSError as error:
+        raise BakeError(f"{path}: cannot be read ({error.strerror})") from error
+    if magic != EXR_MAGIC:
+        raise BakeError(f"{path}: not an OpenEXR file (wrong magic number)")
+
+
+def _open_layers(path: Path):
+    """Return (header dict, {layer: float32 (H, W, C)}) or raise BakeError."""
+    OpenEXR = _import_openexr()
+    try:
+        with _quiet_native(), OpenEXR.File(str(path)) as exr_file:
+            header = dict(exr_file.header())
+            channels = {name: np.asarray(ch.pixels) for name, ch in exr_file.channels().items()}
+    except (RuntimeError, ValueError, OSError, TypeError) as error:
+        raise BakeError(f"{path}: truncated or corrupt OpenEXR file ({error})") from error
+    layers = {}
+    for key, pixels in channels.items():
+        if pixels.dtype.kind not in "fu":
+            raise BakeError(f"{path}: channel group {key!r} has unsupported type {pixels.dtype}")
+        array = pixels.astype(np.float32, copy=False)
+        if array.ndim == 2:
+            array = array[:, :, None]
+        layers[_layer_name(key)] = array
+    if not layers:
+        raise BakeError(f"{path}: the file holds no image channels")
+    return header, layers
+
+
+def _layer_name(key: str) -> str:
+    """Layer of a channel group key: 'RGB' -> '', 'slice.0' -> 'slice.0'."""
+    if key in ("RGB", "RGBA", "Y", "R", "G", "B", "A"):
+        return ""
+    for suffix in (".RGBA", ".RGB"):
+        if key.endswith(suffix):
+            return key[: -len(suffix)]
+    return key
+
+
+def _decode_meta(header: dict, path: Path) -> dict:
+    raw = header.get(META_ATTRIBUTE)
+    if raw is None:
+        return {}
+    if isinstance(raw, bytes):
+        raw = raw.decode("utf-8", "replace")
+    try:
+        meta = json.loads(raw)
+    except (TypeError, json.JSONDecodeError) as error:
+        raise BakeError(f"{path}: header attribute '{META_ATTRIBUTE}' is not valid JSON") from error
+    if not isinstance(meta, dict):
+        raise BakeError(f"{path}: header attribute '{META_ATTRIBUTE}' is not a JSON object")
+    return meta
+
+
+def _handle_nonfinite(layers: dict, path: Path, nonfinite: str) -> None:
+    bad = {name: int(np.count_nonzero(~np.isfinite(a))) for name, a in layers.items()}
+    total = sum(bad.values())
+    if total == 0:
+        return
+    if nonfinite == "error":
+        raise BakeError(
+            f"{path}: {total} values are NaN or infinite "
+            "(use --sanitize / nonfinite='sanitize' to replace them)"
+        )
+    for name, array in layers.items():
+        if bad[name]:
+            finite = array[np.isfinite(array)]
+            top = float(finite.max()) if finite.size else 0.0
+            np.nan_to_num(array, copy=False, nan=0.0, posinf=max(top, 0.0), neginf=0.0)
+    warnings.warn(
+        f"{path}: replaced {total} NaN/infinite values (NaN and -inf by 0, +inf by the "
+        "largest finite value of the layer)",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+
+
+def read_header(path) -> dict:
+    """The file's header attributes as a dict (OpenEXR binding values)."""
+    path = Path(path)
+    _check_readable(path)
+    OpenEXR = _import_openexr()
+    try:
+        with _quiet_native(), OpenEXR.File(str(path), header_only=True) as exr_file:
+            return dict(exr_file.header())
+    except (RuntimeError, ValueError, OSError, TypeError) as error:
+        raise BakeError(f"{path}: truncated or corrupt OpenEXR file ({error})") from error
+
+
+def read(path, *, layers: bool = False, nonfinite: str = "error"):
+    """Read a float EXR.
+
+    Returns ``(image, meta)``: ``image`` is a float32 (H, W, C) array when the
+    file holds one layer (unless ``layers=True``), otherwise a dict
+    ``{layer_name: (H, W, C) array}`` with ``""`` for the unnamed layer.
+    ``meta`` is the decoded ``glossy`` header attribute ({} if absent).
+
+    ``nonfinite``: ``"error"`` (default) raises BakeError on NaN/inf texels;
+    ``"sanitize"`` replaces NaN and -inf by 0 and +inf by the layer's largest
+    finite value, with a RuntimeWarning.
+    """
+    if nonfinite not in ("error", "sanitize"):
+        raise ValueError(f"nonfinite must be 'error' or 'sanitize', not {nonfinite!r}")
+    path = Path(path)
+    _check_readable(path)
+    header, data = _open_layers(path)
+    meta = _decode_meta(header, path)
+    _handle_nonfinite(data, path, nonfinite)
+    if not layers and len(data) == 1:
+        return next(iter(data.values())), meta
+    return data, meta
+
+
+def _channels_for(name: str, array) -> dict:
+    array = np.asarray(array)
+    if array.ndim == 2:
+        array = array[:, :, None]
+    if array.ndim != 3 or array.shape[2] not in _CHANNELS_BY_COUNT:
+        raise ValueError(
+            f"layer {name!r}: image must have shape (H, W, C) with C in 1, 3, 4; got {array.shape}"
+        )
+    if array.shape[0] < 1 or array.shape[1] < 1:
+        raise ValueError(f"layer {name!r}: empty image of shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"layer {name!r}: refusing to write NaN or infinite values")
+    prefix = f"{name}." if name else ""
+    return {
+        prefix + channel: np.ascontiguousarray(array[:, :, index])
+        for index, channel in enumerate(_CHANNELS_BY_COUNT[array.shape[2]])
+    }
+
+
+def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
+    """Write ``image`` ((H, W, C) array or {layer: array}) atomically to ``path``.
+
+    ``meta`` (JSON-serialisable dict) goes to the ``glossy`` header attribute.
+    ``half=True`` stores 16-bit floats; the default is 32-bit float.
+    Returns the path written.
+    """
+    OpenEXR = _import_openexr()
+    path = Path(path)
+    layers = image if isinstance(image, dict) else {"": image}
+    dtype = np.float16 if half else np.float32
+    channels = {}
+    shape = None
+    for name, array in layers.items():
+        array = np.asarray(array)
+        if shape is None:
+            shape = array.shape[:2]
+        elif array.shape[:2] != shape:
+            raise ValueError(f"layer {name!r} has size {array.shape[:2]}, expected {shape}")
+        for key, plane in _channels_for(name, array).items():
+            channels[key] = plane.astype(dtype)
+    if not channels:
+        raise ValueError("nothing to write: no layers given")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    if meta is not None:
+        header[META_ATTRIBUTE] = json.dumps(meta, sort_keys=True)
+    if not path.parent.is_dir():
+        raise BakeError(f"{path.parent}: output folder does not exist")
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.exr")
+    try:
+        with _quiet_native():
+            OpenEXR.File(header, channels).write(str(temporary))
+        os.replace(temporary, path)
+    except (RuntimeError, OSError) as error:
+        raise BakeError(f"{path}: cannot write ({error})") from error
+    finally:
+        if temporary.exists():
+            temporary.unlink()
+    return path

@@ -1,0 +1,58 @@
+"""Progress reporting shared by the baker, the command line and Blender.
+
+Long functions in ``bake`` take ``progress: Callable[[float, str], None] | None``
+and call it with a fraction in [0, 1] and a short message. The command line
+passes :class:`LinePrinter`; Blender operators forward to
+``window_manager.progress_update`` and the status bar.
+"""
+
+import sys
+import time
+from collections.abc import Callable
+
+__all__ = ["Progress", "LinePrinter", "report", "scaled"]
+
+Progress = Callable[[float, str], None]
+
+
+def report(progress: Progress | None, fraction: float, message: str) -> None:
+    """Call ``progress`` if given; fraction is clipped to [0, 1]."""
+    if progress is not None:
+        progress(min(max(float(fraction), 0.0), 1.0), message)
+
+
+def scaled(progress: Progress | None, start: float, stop: float) -> Progress | None:
+    """A callback mapping [0, 1] of a sub-task onto [start, stop] of ``progress``."""
+    if progress is None:
+        return None
+
+    def inner(fraction: float, message: str) -> None:
+        progress(start + (stop - start) * fraction, message)
+
+    return inner
+
+
+class LinePrinter:
+    """Prints ``[ 42%] message`` lines on stderr, at most every ``interval`` seconds.
+
+    On a terminal the line is rewritten in place; otherwise one line per update.
+    """
+
+    def __init__(self, stream=None, interval: float = 0.5):
+        self.stream = stream if stream is not None else sys.stderr
+        self.interval = interval
+        self._last = -1e9
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def __call__(self, fraction: float, message: str) -> None:
+        now = time.monotonic()
+        if fraction < 1.0 and now - self._last < self.interval:
+            return
+        self._last = now
+        line = f"[{100.0 * fraction:5.1f}%] {message}"
+        if self._tty:
+            end = "\n" if fraction >= 1.0 else ""
+            self.stream.write("\r\033[K" + line + end)
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
