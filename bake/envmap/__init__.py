@@ -34,7 +34,9 @@ def get_layout(name) -> Layout:
         return LAYOUTS[name]
     except (KeyError, TypeError):
         allowed = ", ".join(LAYOUTS)
-        raise BakeError(f"unknown environment-map layout {name!r} (use one of: {allowed})") from None
+        raise BakeError(
+            f"unknown environment-map layout {name!r} (use one of: {allowed})"
+        ) from None
 
 
 def sample(image, layout, directions):

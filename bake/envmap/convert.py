@@ -7,7 +7,9 @@ that point, each a bilinear lookup of the source. k grows with the ratio of
 source to target resolution, so a smaller target averages all the source
 detail under each texel instead of aliasing it (area-correct downsampling);
 the lat-long source additionally box-filters its polar rows along longitude
-to the sub-sample spacing.
+to the sub-sample spacing. Where even 8 x 8 sub-samples would skip source
+texels, a cube or lat-long source is first reduced by exact 2 x 2
+solid-angle box steps (its MIP pyramid).
 """
 
 import math
@@ -35,7 +37,31 @@ def supersampling(source: Layout, source_shape, target: Layout, target_shape) ->
     face centres), which makes the texel average close to the exact area mean.
     """
     ratio = source.covered_texels(source_shape) / target.covered_texels(target_shape)
-    return int(np.clip(math.ceil(1.5 * math.sqrt(ratio)), 1, MAX_SUPERSAMPLING))
+    return int(np.clip(math.ceil(2.0 * math.sqrt(ratio)), 1, MAX_SUPERSAMPLING))
+
+
+def _prereduce(source: Layout, image, target: Layout, shape):
+    """Halve a cube or lat-long source by exact 2x2 solid-angle box steps while it
+    has more than (MAX_SUPERSAMPLING / 1.5)^2 texels per target texel, so that
+    k x k sub-samples of the reduced source still see every source texel."""
+    from .mip import reduce_level
+
+    if source.name not in ("cube", "latlong"):
+        return image
+    limit = (MAX_SUPERSAMPLING / 2.0) ** 2
+    target_texels = target.covered_texels(shape)
+    stack = source.to_faces(image)
+    src_shape = image.shape[:2]
+    omega = None
+    while source.covered_texels(src_shape) / target_texels > limit:
+        height, width = stack.shape[1:3]
+        if height % 2 or width % 2 or height < 2:
+            break
+        if omega is None:
+            omega = source.to_faces(source.solid_angles(src_shape)[..., None])[..., 0]
+        stack, omega = reduce_level(stack, omega)
+        src_shape = (src_shape[0] // 2, src_shape[1] // 2)
+    return source.from_faces(stack) if omega is not None else image
 
 
 def resample(sample, target: Layout, shape, k: int, channels: int, progress=None, dtype=np.float32):
@@ -87,9 +113,10 @@ def convert(image, src, dst, size, *, samples: int | None = None, progress: Prog
     if not np.all(np.isfinite(image)):
         raise BakeError("the environment map holds NaN or infinite values")
     shape = target.shape(size)
+    image = _prereduce(source, image.astype(np.float32, copy=False), target, shape)
     k = samples if samples is not None else supersampling(source, image.shape[:2], target, shape)
     if not 1 <= int(k) <= 64:
         raise BakeError(f"samples must be between 1 and 64, not {k}")
     spacing = math.sqrt(4.0 * math.pi / target.covered_texels(shape)) / k
-    sample = source.sampler(image.astype(np.float32, copy=False), spacing)
+    sample = source.sampler(image, spacing)
     return resample(sample, target, shape, int(k), image.shape[2], progress)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import BakeError
 from .grid import bilinear, gather_padded
-from .layout import MAX_TEXELS, MIN_SIZE, Layout
+from .layout import MAX_TEXELS, Layout
 
 __all__ = ["Cube", "CUBE"]
 

@@ -14,7 +14,7 @@ shape (H, W) = (N, 2N); any H, W >= 2 is accepted as input.
 import numpy as np
 
 from ..errors import BakeError
-from .grid import bilinear, gather_padded
+from .grid import bilinear
 from .layout import MAX_TEXELS, MIN_SIZE, Layout
 
 __all__ = ["LatLong"]
@@ -75,29 +75,44 @@ class LatLong(Layout):
         rows = np.arange(-border, height + border)
         cols = np.arange(-border, width + border)
         across = (rows < 0) | (rows >= height)
-        real_rows = np.where(rows < 0, -1 - rows, np.where(rows >= height, 2 * height - 1 - rows, rows))
+        mirrored = np.where(rows >= height, 2 * height - 1 - rows, rows)
+        real_rows = np.where(rows < 0, -1 - rows, mirrored)
         real_rows = np.clip(real_rows, 0, height - 1)
         shift = np.where(across, width // 2, 0)
         real_cols = np.mod(cols[None, :] + shift[:, None], width)
         return (real_rows[:, None] * width + real_cols)[None]
 
     def face_coords(self, directions, shape):
+        """Coordinates in the pole-padded stack built by :meth:`sampler`.
+
+        Padded row 0 is the north pole itself (at y = 0), rows 1..H the image
+        rows (centres at y = i + 0.5) and row H + 1 the south pole (y = H);
+        columns wrap with one extra column each side.
+        """
+        height = shape[0]
         x, y = self.coords(directions, shape)
-        # Coordinates in the padded stack (border 1).
-        return np.zeros(np.shape(x), dtype=np.intp), x + 0.5, y + 0.5
+        south = height + 1.0 - 2.0 * (height - y)
+        py = np.where(y < 0.5, 2.0 * y, np.where(y > height - 0.5, south, y + 0.5))
+        return np.zeros(np.shape(x), dtype=np.intp), x + 0.5, py
 
     def sampler(self, image, spacing=None):
-        """Bilinear lookups continuous across the u seam and through both poles.
+        """Bilinear lookups continuous across the u seam and at both poles.
 
-        With ``spacing`` (radians), rows whose texels are narrower than the
-        sample spacing (towards the poles) are first box-filtered along
-        longitude to that width, so sparse samples do not alias there.
+        Each pole takes the mean of its nearest row, so every longitude meets
+        the same value there. With ``spacing`` (radians), rows whose texels
+        are narrower than the sample spacing (towards the poles) are first
+        box-filtered along longitude to that width, so sparse samples do not
+        alias there.
         """
         image = self.check_image(image)
         shape = image.shape[:2]
         if spacing is not None:
             image = self._prefilter_rows(image, spacing)
-        padded = gather_padded(image[None], self.pad_index(shape, 1), fill_corners=False)
+        rows = np.concatenate(
+            [image[:1].mean(axis=1, keepdims=True).repeat(image.shape[1], 1), image,
+             image[-1:].mean(axis=1, keepdims=True).repeat(image.shape[1], 1)], axis=0
+        )
+        padded = np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1)[None]
 
         def sample(directions):
             face, px, py = self.face_coords(directions, shape)

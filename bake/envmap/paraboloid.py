@@ -112,19 +112,49 @@ class Paraboloid(Layout):
         return np.tile(_half_solid_angles(int(shape[0])), (1, 2))
 
     def face_coords(self, directions, shape):
+        """Half index and texel-centred coordinates in the padded halves (border 1)."""
         half, px, py = self._half_coords(directions, shape[0])
-        return half, px - 0.5, py - 0.5
+        return half, px + 0.5, py + 0.5
 
     def sampler(self, image, spacing=None):
+        """Bilinear lookups, continuous across the rim where the two halves meet.
+
+        Each half gets a one-texel border continuing its extended domain: a
+        border texel holds the direction the paraboloid formula gives at its
+        centre (always in the other hemisphere), looked up in the other half.
+        Where the disk touches the square's sides a lookup then interpolates
+        across the rim instead of clamping to a texel inside it.
+        """
         image = self.check_image(image)
         shape = image.shape[:2]
+        n = shape[0]
         stack = self.to_faces(image)
+        padded = np.zeros((2, n + 2, n + 2, stack.shape[3]), dtype=stack.dtype)
+        padded[:, 1:-1, 1:-1] = stack
+        border = np.ones((n + 2, n + 2), dtype=bool)
+        border[1:-1, 1:-1] = False
+        rows, cols = np.nonzero(border)
+        for half in (0, 1):
+            x = half * n + (cols - 0.5)  # border texel centres, outside [0, n]
+            d = self._extended_directions(half, x - half * n, rows - 0.5, n)
+            other = np.full(rows.shape, 1 - half)
+            _, px, py = self._half_coords(d, n)
+            padded[half, rows, cols] = bilinear(padded[:, 1:-1, 1:-1], other, px - 0.5, py - 0.5)
 
         def sample(directions):
             face, px, py = self.face_coords(directions, shape)
-            return bilinear(stack, face, px, py)
+            return bilinear(padded, face, px, py)
 
         return sample
+
+    @staticmethod
+    def _extended_directions(half, x, y, n):
+        """Directions at in-half coordinates x, y (may lie outside [0, n])."""
+        s = 2.0 * np.asarray(x, dtype=np.float64) / n - 1.0
+        t = 1.0 - 2.0 * np.asarray(y, dtype=np.float64) / n
+        r2 = s * s + t * t
+        z = (1.0 - r2) * (1.0 if half == 0 else -1.0)
+        return np.stack([2.0 * s, 2.0 * t, z], -1) / (1.0 + r2)[..., None]
 
 
 @functools.lru_cache(maxsize=16)

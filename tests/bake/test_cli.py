@@ -1,0 +1,105 @@
+"""``python -m bake convert`` / ``mip`` as a user runs them."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bake import exr
+from tests.conftest import ROOT
+
+
+def run_bake(*args, cwd=None):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "bake", *map(str, args)], cwd=cwd or ROOT,
+                          env=env, capture_output=True, text=True, timeout=300)
+
+
+def test_convert_writes_a_map_with_its_parameters(hdri_dir, tmp_path, forest):
+    out = tmp_path / "forest_cube.exr"
+    result = run_bake("convert", hdri_dir / "forest.exr", "--to", "cube", "--size", "256",
+                      "-o", out)
+    assert result.returncode == 0, result.stderr
+    assert f"wrote {out}" in result.stdout
+    # 1024 x 512 -> 6 x 256^2 is large enough for a progress line.
+    assert "%]" in result.stderr and "resampling" in result.stderr
+    image, meta = exr.read(out)
+    assert image.shape == (256, 1536, 3)
+    assert meta["layout"] == "cube" and meta["size"] == 256 and meta["source"] == "forest.exr"
+    assert meta["source_layout"] == "latlong" and "glTF" in meta["convention"]
+    from bake.envmap import convert
+    np.testing.assert_array_equal(image, convert(forest, "latlong", "cube", 256))
+
+    # The layout is read back from the metadata: paraboloid and lat-long share a shape.
+    par = tmp_path / "p.exr"
+    assert run_bake("convert", out, "--to", "paraboloid", "--size", "32", "-o", par,
+                    "-q").returncode == 0
+    back = tmp_path / "l.exr"
+    result = run_bake("convert", par, "--to", "latlong", "--size", "16", "-o", back, "-q")
+    assert result.returncode == 0 and exr.read(back)[1]["source_layout"] == "paraboloid"
+
+
+def test_mip_writes_every_level(tmp_path):
+    cube = tmp_path / "c.exr"
+    exr.write(cube, np.ones((16, 96, 3), np.float32), {"layout": "cube"})
+    result = run_bake("mip", cube, "--filter", "gauss6", "-o", tmp_path / "p.exr")
+    assert result.returncode == 0, result.stderr
+    sizes = [exr.read(tmp_path / f"p.mip{k}.exr")[0].shape[0] for k in range(5)]
+    assert sizes == [16, 8, 4, 2, 1]
+
+
+def _bad_inputs(tmp_path, hdri_dir):
+    text = tmp_path / "notes.exr"
+    text.write_text("this is text\n")
+    truncated = tmp_path / "cut.exr"
+    truncated.write_bytes((hdri_dir / "forest.exr").read_bytes()[:200_000])
+    forest = hdri_dir / "forest.exr"
+    return {
+        "missing": ([tmp_path / "nope.exr", "--to", "cube", "--size", "8"], "no such file"),
+        "text": ([text, "--to", "cube", "--size", "8"], "not an OpenEXR file"),
+        "truncated": ([truncated, "--to", "cube", "--size", "8"], "truncated or corrupt"),
+        "size0": ([forest, "--to", "cube", "--size", "0"], "size must be"),
+        "huge": ([forest, "--to", "cube", "--size", "1000000"], "too large"),
+        "target": ([forest, "--to", "octahedral", "--size", "8"], "invalid choice"),
+        "notint": ([forest, "--to", "cube", "--size", "big"], "invalid int value"),
+    }
+
+
+@pytest.mark.parametrize("case", ["missing", "text", "truncated", "size0", "huge", "target",
+                                  "notint"])
+def test_bad_input_gives_one_line_and_no_file(tmp_path, hdri_dir, case):
+    args, message = _bad_inputs(tmp_path, hdri_dir)[case]
+    out = tmp_path / "out.exr"
+    result = run_bake("convert", *args, "-o", out)
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert message in lines[0] and "Traceback" not in result.stderr
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if "partial" in p.name]
+
+
+def test_failed_run_keeps_an_existing_output(tmp_path, hdri_dir):
+    out = tmp_path / "keep.exr"
+    exr.write(out, np.ones((4, 8, 3), np.float32))
+    before = out.read_bytes()
+    result = run_bake("convert", hdri_dir / "forest.exr", "--to", "cube", "--size", "0", "-o", out)
+    assert result.returncode == 2 and out.read_bytes() == before
+
+
+def test_nan_input_is_refused_unless_sanitized(tmp_path):
+    import OpenEXR
+
+    image = np.ones((8, 16, 3), np.float32)
+    image[2, 3, 1] = np.nan
+    path = tmp_path / "nan.exr"
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {c: np.ascontiguousarray(image[..., i]) for i, c in enumerate("RGB")}
+                 ).write(str(path))
+    out = tmp_path / "o.exr"
+    result = run_bake("convert", path, "--to", "cube", "--size", "4", "-o", out)
+    assert result.returncode == 2 and "NaN" in result.stderr and not out.exists()
+    result = run_bake("convert", path, "--to", "cube", "--size", "4", "-o", out, "--sanitize")
+    assert result.returncode == 0 and "warning: " in result.stderr and out.exists()
