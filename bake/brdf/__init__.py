@@ -1,0 +1,80 @@
+"""BRDF library: one interface for analytic, Cycles-exact, measured and tabulated models.
+
+``parse(spec)`` turns a spec string into a model:
+
+- ``name:key=value,...`` for a registered model (``ggx:roughness=0.3,anisotropy=0.8``,
+  ``ward:ax=0.04,ay=0.04,ks=0.8``, ``phong:n=100``, ...; ``models()`` lists them);
+- ``sum(A; B; ...)`` for a sum, ``layer(ior=1.5; TOP; BASE)`` for a coat;
+- ``table:file=PATH.npz`` and ``merl:file=PATH.binary`` for data.
+
+Every model gives ``f(wi, wo)`` (..., 3), ``sample(wo, u)``, ``pdf(wi, wo)``,
+``albedo(wo)``, ``spec`` (canonical) and ``spec_hash()`` (base.py).
+"""
+
+from . import classic, cycles, fresnel, lobes  # noqa: F401  (registers the models)
+from .base import BRDF, REGISTRY, parse_model
+from .combine import Layer, Sum
+from .merl import MerlBRDF
+from .params import SpecError
+from .tabulated import AnisotropicTable, IsotropicTable, load_table
+
+__all__ = ["parse", "models", "BRDF", "SpecError", "Sum", "Layer", "IsotropicTable",
+           "AnisotropicTable", "MerlBRDF", "fresnel"]
+
+
+def models() -> dict:
+    """{name: one-line description} of the models ``parse`` knows."""
+    described = {name: (cls.__doc__ or "").strip().splitlines()[0]
+                 for name, cls in REGISTRY.items() if name not in ("table",)}
+    described["table"] = "tabulated BRDF from an .npz file: table:file=PATH"
+    described["merl"] = "MERL measured BRDF: merl:file=PATH"
+    described["sum"] = "sum(A; B; ...): the sum of several models"
+    described["layer"] = "layer(ior=1.5; TOP; BASE): a dielectric coat over a base"
+    return dict(sorted(described.items()))
+
+
+def _split_top(text: str) -> list:
+    parts, depth, start = [], 0, 0
+    for index, char in enumerate(text):
+        if char == "(":
+            depth += 1
+        elif char == ")":
+            depth -= 1
+            if depth < 0:
+                raise SpecError(f"unbalanced ')' in {text!r}")
+        elif char == ";" and depth == 0:
+            parts.append(text[start:index])
+            start = index + 1
+    if depth:
+        raise SpecError(f"unbalanced '(' in {text!r}")
+    parts.append(text[start:])
+    return [p.strip() for p in parts]
+
+
+def parse(spec) -> BRDF:
+    """A BRDF model from a spec string (or the model itself). Raises SpecError."""
+    if isinstance(spec, BRDF):
+        return spec
+    if not isinstance(spec, str) or not spec.strip():
+        raise SpecError(f"a BRDF spec must be a non-empty string, not {spec!r}")
+    text = spec.strip()
+    head = text.split("(", 1)[0].strip().lower()
+    if head in ("sum", "layer") and text.endswith(")") and "(" in text:
+        inner = _split_top(text[text.index("(") + 1:-1])
+        if head == "sum":
+            return Sum([parse(part) for part in inner])
+        if len(inner) != 3 or not inner[0].startswith("ior="):
+            raise SpecError("layer takes (ior=VALUE; TOP; BASE)")
+        try:
+            ior = float(inner[0][4:])
+        except ValueError:
+            raise SpecError(f"layer: ior={inner[0][4:]!r} is not a number") from None
+        return Layer(ior, parse(inner[1]), parse(inner[2]))
+    name, _, body = text.partition(":")
+    name = name.strip().lower()
+    if name in ("table", "merl"):
+        key, _, path = body.partition("=")
+        if key.strip() != "file" or not path.strip():
+            raise SpecError(f"{name}: expected {name}:file=PATH")
+        return load_table(path.strip()) if name == "table" else MerlBRDF.load(path.strip())
+    return parse_model(text)
