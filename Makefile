@@ -26,6 +26,7 @@ extension: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/envmap.py
+	$(PY) benchmarks/brdf.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache

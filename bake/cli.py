@@ -128,6 +128,25 @@ def cmd_mip(args):
         print(f"wrote {path} ({layout} level {index}, {level.shape[0]}x{level.shape[1]})")
 
 
+def cmd_brdf(args):
+    from . import brdf
+    from .brdf.plot import albedo_curve, plot_brdf
+
+    model = brdf.parse(args.spec)
+    if args.plot:
+        plot_path = Path(args.plot)
+        if plot_path.suffix.lower() != ".png" or not plot_path.parent.is_dir():
+            raise BakeError(f"{plot_path}: --plot needs a .png path in an existing folder")
+    print(f"spec: {model.spec}")
+    print(f"hash: {model.spec_hash()}  reciprocal: {model.reciprocal}  "
+          f"isotropic: {model.isotropic}")
+    theta, rho = albedo_curve(model, n=7)
+    for angle, value in zip(theta, rho, strict=True):
+        print(f"albedo at theta_o = {angle:4.1f} deg: {value.round(4).tolist()}")
+    if args.plot:
+        print(f"wrote {plot_brdf(model, args.plot)}")
+
+
 def _build_parser():
     parser = _Parser(prog="python -m bake", description="Glossy's pure-NumPy baker.")
     parser.add_argument("--version", action="version", version=__version__)
@@ -156,6 +175,11 @@ def _build_parser():
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(run=cmd_mip)
+
+    p = commands.add_parser("brdf", help="describe a BRDF spec; --plot draws it")
+    p.add_argument("spec", help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")
+    p.add_argument("--plot", help="write polar slices and the albedo curve to this PNG")
+    p.set_defaults(run=cmd_brdf)
     return parser
 
 

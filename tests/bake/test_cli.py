@@ -103,3 +103,26 @@ def test_nan_input_is_refused_unless_sanitized(tmp_path):
     assert result.returncode == 2 and "NaN" in result.stderr and not out.exists()
     result = run_bake("convert", path, "--to", "cube", "--size", "4", "-o", out, "--sanitize")
     assert result.returncode == 0 and "warning: " in result.stderr and out.exists()
+
+
+def test_brdf_command_describes_and_plots(tmp_path):
+    plot = tmp_path / "ggx.png"
+    result = run_bake("brdf", "ggx:roughness=0.4,anisotropy=0.3", "--plot", plot)
+    assert result.returncode == 0, result.stderr
+    assert "spec: ggx:roughness=0.4,anisotropy=0.3,rotation=0,color=1" in result.stdout
+    assert "albedo at theta_o =  0.0 deg" in result.stdout
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and plot.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(("spec", "message"), [
+    ("ggx:roughness=3", "roughness=3 is out of range [0.01, 1]"),
+    ("velvet", "unknown BRDF 'velvet'"),
+    ("ward:alpha=0.1,shine=2", "unknown key 'shine'"),
+])
+def test_brdf_command_bad_spec_is_one_line(tmp_path, spec, message):
+    plot = tmp_path / "p.png"
+    result = run_bake("brdf", spec, "--plot", plot)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0]
+    assert not plot.exists()

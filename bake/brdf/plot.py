@@ -1,0 +1,84 @@
+"""Pictures of a BRDF for people: in-plane polar slices and the albedo curve.
+
+matplotlib is an optional dependency: only this module imports it, and only
+when a plot is asked for.
+"""
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BakeError
+from .vectors import spherical
+
+__all__ = ["plot_brdf", "albedo_curve", "in_plane_slice"]
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def in_plane_slice(model, theta_o_deg, n=721):
+    """(theta_i signed, f cos theta_i luminance) in the plane of incidence of wo.
+
+    wo lies at +theta_o in the x-z plane; negative theta_i is the mirror side.
+    """
+    theta = np.radians(np.linspace(-90.0, 90.0, n))
+    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
+    t = np.radians(theta_o_deg)
+    wo = np.array([np.sin(t), 0.0, np.cos(t)])
+    value = model.f(wi, np.broadcast_to(wo, wi.shape)) @ LUMINANCE * np.cos(theta)
+    return theta, value
+
+
+def albedo_curve(model, n=31, samples=2048):
+    """(theta_o in degrees, albedo RGB (n, 3)) from normal to grazing incidence."""
+    theta = np.linspace(0.0, 89.0, n)
+    wo = spherical(np.cos(np.radians(theta)), np.zeros(n))
+    return theta, model.albedo(wo, samples)
+
+
+def plot_brdf(model, path, views=(0.0, 30.0, 60.0, 80.0)):
+    """Write a PNG: polar in-plane slices of f cos for each view angle, and rho(theta_o)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as error:
+        raise BakeError("--plot needs matplotlib (pip install matplotlib==3.10.9)") from error
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise BakeError(f"{path}: the plot file name must end in .png")
+    if not path.parent.is_dir():
+        raise BakeError(f"{path.parent}: output folder does not exist")
+    figure = plt.figure(figsize=(11, 5))
+    polar = figure.add_subplot(1, 2, 1, projection="polar")
+    for view in views:
+        theta, value = in_plane_slice(model, view)
+        line, = polar.plot(theta, value, label=f"theta_o = {view:g} deg")
+        polar.plot([np.radians(view)] * 2, [0, value.max() * 1.05 + 1e-9], ":",
+                   color=line.get_color())
+    polar.set_theta_zero_location("N")
+    polar.set_theta_direction(-1)  # +theta (the viewer side) to the right
+    polar.set_thetamin(-90)
+    polar.set_thetamax(90)
+    polar.set_title("f cos(theta_i) in the plane of incidence (luminance)", fontsize=9)
+    polar.legend(loc="lower left", fontsize=8)
+    axis = figure.add_subplot(1, 2, 2)
+    theta_o, rho = albedo_curve(model)
+    for channel, color in enumerate(("tab:red", "tab:green", "tab:blue")):
+        axis.plot(theta_o, rho[:, channel], color=color)
+    axis.set_xlabel("theta_o (degrees)")
+    axis.set_ylabel("directional albedo")
+    axis.set_ylim(0, max(1.05, float(rho.max()) * 1.05))
+    axis.grid(alpha=0.3)
+    axis.set_title(model.spec if len(model.spec) < 70 else model.spec[:67] + "...", fontsize=9)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.png")
+    try:
+        figure.savefig(temporary, dpi=100)
+        os.replace(temporary, path)
+    finally:
+        plt.close(figure)
+        if temporary.exists():
+            temporary.unlink()
+    return path
