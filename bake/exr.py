@@ -25,7 +25,8 @@ import numpy as np
 
 from .errors import BakeError
 
-__all__ = ["read", "write", "read_header", "EXR_MAGIC", "META_ATTRIBUTE"]
+__all__ = ["read", "write", "read_header", "read_parts", "write_parts", "EXR_MAGIC",
+           "META_ATTRIBUTE"]
 
 EXR_MAGIC = b"\x76\x2f\x31\x01"
 META_ATTRIBUTE = "glossy"
@@ -244,3 +245,65 @@ def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
         if temporary.exists():
             temporary.unlink()
     return path
+
+
+def write_parts(path, parts: dict, meta: dict | None = None) -> Path:
+    """Write a multi-part EXR atomically: ``parts`` maps part names to (H, W, C)
+    arrays of any sizes (a MIP chain, a LUT). ``meta`` goes to every part's
+    ``glossy`` attribute.
+    """
+    OpenEXR = _import_openexr()
+    path = Path(path)
+    if not parts:
+        raise ValueError("nothing to write: no parts given")
+    if not path.parent.is_dir():
+        raise BakeError(f"{path.parent}: output folder does not exist")
+    exr_parts = []
+    # Parts may differ in size (data window) but must share the display window.
+    height = max(np.shape(a)[0] for a in parts.values())
+    width = max(np.shape(a)[1] for a in parts.values())
+    display = (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32))
+    for name, array in parts.items():
+        h, w = np.shape(array)[:2]
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  "displayWindow": display,
+                  "dataWindow": (np.array([0, 0], np.int32), np.array([w - 1, h - 1], np.int32))}
+        if meta is not None:
+            header[META_ATTRIBUTE] = json.dumps(meta, sort_keys=True)
+        channels = {key: plane.astype(np.float32) for key, plane in
+                    _channels_for("", array).items()}
+        exr_parts.append(OpenEXR.Part(header, channels, name=str(name)))
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.exr")
+    try:
+        with _quiet_native():
+            OpenEXR.File(exr_parts).write(str(temporary))
+        os.replace(temporary, path)
+    except (RuntimeError, OSError) as error:
+        raise BakeError(f"{path}: cannot write ({error})") from error
+    finally:
+        if temporary.exists():
+            temporary.unlink()
+    return path
+
+
+def read_parts(path, *, nonfinite: str = "error"):
+    """Read every part of an EXR: ({part name: (H, W, C) float32}, meta of part 0)."""
+    OpenEXR = _import_openexr()
+    path = Path(path)
+    _check_readable(path)
+    parts, meta = {}, {}
+    try:
+        with _quiet_native(), OpenEXR.File(str(path)) as exr_file:
+            for index, part in enumerate(exr_file.parts):
+                layers = {_layer_name(k): np.asarray(c.pixels).astype(np.float32)
+                          for k, c in part.channels.items()}
+                image = layers.get("", next(iter(layers.values())))
+                if image.ndim == 2:
+                    image = image[:, :, None]
+                parts[part.name() if callable(part.name) else part.name] = image
+                if index == 0:
+                    meta = _decode_meta(dict(part.header), path)
+    except (RuntimeError, ValueError, OSError, TypeError) as error:
+        raise BakeError(f"{path}: truncated or corrupt OpenEXR file ({error})") from error
+    _handle_nonfinite(parts, path, nonfinite)
+    return parts, meta

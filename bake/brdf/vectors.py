@@ -51,10 +51,10 @@ def rotate_z(v, angle):
 
 def spherical(cos_theta, phi):
     """Unit vectors from polar cosine and azimuth (radians), (...) -> (..., 3)."""
-    cos_theta = np.asarray(cos_theta, dtype=np.float64)
+    cos_theta, phi = np.broadcast_arrays(np.asarray(cos_theta, dtype=np.float64),
+                                         np.asarray(phi, dtype=np.float64))
     sin_theta = np.sqrt(np.clip(1.0 - cos_theta * cos_theta, 0.0, None))
-    return np.stack([sin_theta * np.cos(phi), sin_theta * np.sin(phi),
-                     np.broadcast_to(cos_theta, np.shape(phi))], -1)
+    return np.stack([sin_theta * np.cos(phi), sin_theta * np.sin(phi), cos_theta], -1)
 
 
 def cosine_hemisphere(u):

@@ -1,0 +1,370 @@
+"""Kautz & McCool 2000, section 3: radially symmetric lobes per view elevation.
+
+For an isotropic BRDF, each of K *slices* fixes the view elevation theta_o
+(nodes uniform in mu = cos theta_o = n.r_v, the third coordinate of the 3D
+map) and looks at the slice s(w_i) = f(w_i, w_o) cos(theta_i) as a function
+of the incoming direction, in the local frame with w_o at azimuth 0:
+
+1. the peak: the maximum of s in the plane of incidence, refined to 1e-6 rad;
+   its *offset* is the angle from the mirror direction r_v to the peak,
+   positive towards the horizon (negative towards the normal; a Lambertian
+   slice peaks at the normal, offset -theta_o);
+2. profile curves: s along 16 great circles through the peak, as functions
+   of the angle gamma from it (gamma = pi t^2 on 256 nodes, dense near 0);
+3. the radially symmetric lobe: the mean of the profiles (KM 2000 "mean
+   profile"); in greedy multi-lobe fits every lobe but the last uses the
+   *minimum* profile, so the lobe stays under the slice, and is subtracted
+   before the next peak is sought in the residual;
+4. energy: every lobe shape is normalized to unit integral over the sphere;
+   its RGB weights come from a non-negative least-squares fit to the slice
+   constrained to sum to the slice's directional albedo rho(theta_o)
+   (hemispherical reflectivity), so the lobes reflect exactly that energy.
+
+Lobes of a multi-lobe fit are clustered into coherent sequences across
+slices by their offsets (the permutation that moves offsets least from the
+previous slice), so lobe j of every slice is filtered into map sequence j.
+
+The 2D mode keeps one lobe shape (that of the normal-incidence slice) and a
+weight k(theta_o) per slice (KM 2000's single 2D lobe).
+
+Each slice records the cosine-weighted RMS error of the fitted BRDF against
+the true one over 4096 cosine-distributed directions (Kautz & McCool 1999,
+section 5.2), absolute and relative to the RMS of the BRDF.
+"""
+
+import itertools
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from . import __version__
+from .brdf import BRDF, parse
+from .brdf.base import hammersley
+from .brdf.vectors import around_axis
+from .errors import BakeError
+from .progress import report
+
+__all__ = ["Fit", "SliceFit", "LobeFit", "fit", "slice_nodes", "GAMMA"]
+
+FORMAT_VERSION = 1
+MU_MIN = 0.02
+PROFILE_AZIMUTHS = 16
+GAMMA = np.pi * np.linspace(0.0, 1.0, 256) ** 2
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+MAX_SLICES = 256
+MAX_LOBES = 4
+
+
+@dataclass
+class LobeFit:
+    """One radially symmetric lobe: centre offset (rad), RGB weight, unit-integral profile."""
+
+    offset: float
+    weight: list
+    profile: list
+
+    def shape(self, cos_gamma):
+        """Lobe shape (1/sr, unit integral) at cos(angle from the lobe centre)."""
+        gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
+        return np.interp(gamma, GAMMA, np.asarray(self.profile))
+
+
+@dataclass
+class SliceFit:
+    """The lobes of one view elevation (mu = cos theta_o = n.r_v)."""
+
+    mu: float
+    albedo: list
+    lobes: list = field(default_factory=list)
+    rms_error: float = 0.0
+    relative_rms_error: float = 0.0
+
+
+@dataclass
+class Fit:
+    """A serializable lobe fit of one BRDF (Kautz & McCool 2000)."""
+
+    spec: str
+    spec_hash: str
+    mode: str
+    slices: list
+    lobes: int
+    version: str = __version__
+    format: int = FORMAT_VERSION
+
+    @property
+    def mus(self):
+        return np.array([s.mu for s in self.slices])
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["gamma"] = GAMMA.tolist()
+        return data
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
+
+    def save(self, path):
+        import os
+        from pathlib import Path
+
+        path = Path(path)
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        temporary.write_text(self.to_json())
+        os.replace(temporary, path)
+        return path
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Fit":
+        if data.get("format") != FORMAT_VERSION:
+            raise BakeError(f"unsupported lobe-fit format {data.get('format')!r}")
+        if not np.allclose(data.get("gamma", GAMMA), GAMMA):
+            raise BakeError("lobe fit was made with a different gamma grid")
+        slices = [SliceFit(mu=s["mu"], albedo=s["albedo"],
+                           lobes=[LobeFit(**lobe) for lobe in s["lobes"]],
+                           rms_error=s["rms_error"], relative_rms_error=s["relative_rms_error"])
+                  for s in data["slices"]]
+        return cls(spec=data["spec"], spec_hash=data["spec_hash"], mode=data["mode"],
+                   slices=slices, lobes=data["lobes"], version=data.get("version", ""))
+
+    @classmethod
+    def load(cls, path) -> "Fit":
+        from pathlib import Path
+
+        try:
+            return cls.from_dict(json.loads(Path(path).read_text()))
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            raise BakeError(f"{path}: not a lobe fit ({error})") from error
+
+    def evaluate(self, k: int, wi):
+        """Fitted f cos(theta_i) (RGB) of slice k at local directions wi (..., 3)."""
+        s = self.slices[k]
+        wo = _view(s.mu)
+        total = 0.0
+        for lobe in s.lobes:
+            centre = _centre(wo, lobe.offset)
+            total = total + lobe.shape(np.asarray(wi) @ centre)[..., None] * np.asarray(lobe.weight)
+        return total
+
+
+def slice_nodes(count: int) -> np.ndarray:
+    """mu = cos(theta_o) of the K slices: k / (K - 1), the first raised to MU_MIN."""
+    mus = np.linspace(0.0, 1.0, count)
+    mus[0] = MU_MIN
+    return mus
+
+
+def _view(mu):
+    return np.array([np.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu])
+
+
+def _centre(wo, offset):
+    """Mirror direction of wo turned by ``offset`` towards the horizon, in the x-z plane."""
+    theta_r = np.arctan2(wo[0], wo[2])  # mirror sits at signed elevation -theta_r
+    t = -theta_r - offset
+    return np.array([np.sin(t), 0.0, np.cos(t)])
+
+
+def _slice_luminance(model, wo, wi):
+    return (model.f(wi, np.broadcast_to(wo, np.shape(wi))) @ LUMINANCE) * np.clip(
+        np.asarray(wi)[..., 2], 0.0, None)
+
+
+def _peak(function, wo):
+    """Signed elevation t* maximizing function on the incidence plane (x-z)."""
+    t = np.linspace(-np.pi / 2, np.pi / 2, 4001)
+    values = function(np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], -1))
+    best = int(np.argmax(values))
+    low, high = t[max(best - 1, 0)], t[min(best + 1, t.size - 1)]
+    golden = (np.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(40):  # golden-section refinement inside the bracketing cell
+        a = high - golden * (high - low)
+        b = low + golden * (high - low)
+        va, vb = (function(np.array([[np.sin(x), 0.0, np.cos(x)]]))[0] for x in (a, b))
+        low, high = (low, b) if va >= vb else (a, high)
+    return 0.5 * (low + high), float(values.max())
+
+
+def _profiles(function, centre):
+    """Slice values along PROFILE_AZIMUTHS great circles from the centre: (G, M)."""
+    psi = 2.0 * np.pi * np.arange(PROFILE_AZIMUTHS) / PROFILE_AZIMUTHS
+    d = around_axis(np.broadcast_to(centre, (GAMMA.size, PROFILE_AZIMUTHS, 3)),
+                    np.cos(GAMMA)[:, None], psi[None, :])
+    return function(d)
+
+
+def _integral(profile):
+    """2 pi * integral of profile(gamma) sin(gamma) d gamma on GAMMA (trapezoid)."""
+    integrand = np.asarray(profile) * np.sin(GAMMA)
+    return float(2.0 * np.pi * np.trapz(integrand, GAMMA))
+
+
+def _unit(profile):
+    total = _integral(profile)
+    if not total > 0:
+        return None
+    return np.asarray(profile) / total
+
+
+def _error_samples(n=4096):
+    u = hammersley(n)
+    r = np.sqrt(u[:, 0])
+    phi = 2.0 * np.pi * u[:, 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u[:, 0])], -1)
+
+
+def _fit_slice(model, mu, lobes, mode_shape=None):
+    """Fit one slice with up to ``lobes`` lobes: returns a SliceFit.
+
+    Lobe 1 is the single-lobe fit (mean profile about the slice's peak). Each
+    further lobe is found greedily in the residual (the slice minus the
+    current fit, clipped at 0): its peak in the plane of incidence, and the
+    *minimum* of its profiles there, so it adds what the fit lacks along the
+    profile that lacks least and never overshoots along the others. After
+    every addition all weights are refitted (non-negative least squares), so
+    the fit error cannot grow as lobes are added, under the constraint that
+    the lobes integrate to the directional albedo (per channel).
+    """
+    wo = _view(mu)
+    albedo = model.albedo(wo)
+    if not np.all(np.isfinite(albedo)) or albedo.max() <= 0:
+        raise BakeError(f"{model.spec}: the BRDF reflects nothing at cos(theta_o) = {mu:.3g}")
+    samples = _error_samples()
+    cos_i = np.maximum(samples[:, 2], 1e-6)
+    target = model.f(samples, np.broadcast_to(wo, samples.shape))
+
+    def slice_fn(wi):
+        return _slice_luminance(model, wo, wi)
+
+    shapes, offsets = [], []
+    weights = np.zeros((0, 3))
+    for index in range(lobes):
+        if index == 0:
+            residual = slice_fn
+        else:
+            def residual(wi, shapes=tuple(shapes), offsets=tuple(offsets),
+                         w=weights @ LUMINANCE):
+                fitted = sum(wj * np.interp(np.arccos(np.clip(np.asarray(wi) @ _centre(wo, o),
+                                                              -1, 1)), GAMMA, shp)
+                             for wj, shp, o in zip(w, shapes, offsets, strict=True))
+                return np.clip(slice_fn(wi) - fitted, 0.0, None)
+        t_star, peak = _peak(residual, wo)
+        if index and peak <= 1e-6 * _peak(slice_fn, wo)[1]:
+            break
+        centre = np.array([np.sin(t_star), 0.0, np.cos(t_star)])
+        offset = float(-np.arctan2(wo[0], wo[2]) - t_star)
+        if mode_shape is not None:
+            shape = mode_shape
+        else:
+            profiles = np.clip(_profiles(residual, centre), 0.0, None)
+            shape = _unit(profiles.mean(axis=1) if index == 0 else profiles.min(axis=1))
+        if shape is None:
+            if index == 0:
+                raise BakeError(f"{model.spec}: no lobe found at cos(theta_o) = {mu:.3g}")
+            break
+        shapes.append(shape)
+        offsets.append(offset)
+        basis = np.stack([np.interp(np.arccos(np.clip(samples @ _centre(wo, o), -1, 1)), GAMMA,
+                                    shp) for shp, o in zip(shapes, offsets, strict=True)], -1)
+        # Least squares in the space of the reported error (f over
+        # cosine-distributed directions), non-negative, summing to the albedo.
+        weights = np.stack([_weights_summing_to(basis / cos_i[:, None], target[:, c],
+                                                albedo[c]) for c in range(3)], -1)
+    fitted = [LobeFit(offset=o, weight=w.tolist(), profile=s.tolist())
+              for o, w, s in zip(offsets, weights, shapes, strict=True)]
+    result = SliceFit(mu=float(mu), albedo=albedo.tolist(), lobes=fitted)
+    _measure(result, model, wo, samples)
+    return result
+
+
+def _weights_summing_to(a, b, total):
+    """min |a x - b| subject to x >= 0 and sum(x) = total (a few columns).
+
+    Exhaustive over active sets (at most 2^4 - 1 for 4 lobes), each solved
+    exactly through its KKT system: the fitted lobes integrate to ``total``
+    (the directional albedo) while matching the slice as well as they can.
+    A fit with one more lobe contains the previous optimum (weight 0), so its
+    error can only fall.
+    """
+    columns = a.shape[1]
+    gram = a.T @ a
+    rhs = a.T @ b
+    best, best_x = np.inf, None
+    for mask in range(1, 1 << columns):
+        keep = [j for j in range(columns) if mask >> j & 1]
+        n = len(keep)
+        system = np.zeros((n + 1, n + 1))
+        system[:n, :n] = 2.0 * gram[np.ix_(keep, keep)]
+        system[:n, n] = system[n, :n] = 1.0
+        vector = np.concatenate([2.0 * rhs[keep], [total]])
+        try:
+            solution = np.linalg.solve(system, vector)
+        except np.linalg.LinAlgError:
+            solution = np.linalg.lstsq(system, vector, rcond=None)[0]
+        x = solution[:n]
+        if np.any(x < -1e-12):
+            continue
+        candidate = np.zeros(columns)
+        candidate[keep] = np.clip(x, 0.0, None)
+        residual = float(np.sum((a @ candidate - b) ** 2))
+        if residual < best:
+            best, best_x = residual, candidate
+    if best_x is None:
+        best_x = np.full(columns, total / columns)
+    return best_x
+
+
+def _measure(slice_fit, model, wo, samples):
+    """Cosine-weighted RMS error of the fitted BRDF (KM 1999 sec. 5.2), in place."""
+    true_f = model.f(samples, np.broadcast_to(wo, samples.shape)) @ LUMINANCE
+    approx = 0.0
+    for lobe in slice_fit.lobes:
+        shape = lobe.shape(samples @ _centre(wo, lobe.offset))
+        approx = approx + shape * float(np.asarray(lobe.weight) @ LUMINANCE)
+    approx = approx / np.maximum(samples[:, 2], 1e-6)
+    rms = float(np.sqrt(np.mean((approx - true_f) ** 2)))
+    slice_fit.rms_error = rms
+    slice_fit.relative_rms_error = rms / max(float(np.sqrt(np.mean(true_f**2))), 1e-300)
+
+
+def _cluster(slices):
+    """Reorder each slice's lobes to follow the previous slice's offsets (in place)."""
+    for previous, current in itertools.pairwise(slices):
+        if len(current.lobes) < 2:
+            continue
+        prev = [lobe.offset for lobe in previous.lobes]
+        best = min(itertools.permutations(current.lobes),
+                   key=lambda order: sum(abs(lobe.offset - prev[i]) if i < len(prev) else 0.0
+                                         for i, lobe in enumerate(order)))
+        current.lobes = list(best)
+
+
+def fit(model, slices: int = 16, lobes: int = 1, mode: str = "3d", progress=None) -> Fit:
+    """Fit ``model`` (BRDF or spec) with ``lobes`` lobes at ``slices`` view elevations.
+
+    mode: ``3d`` (a lobe shape per slice) or ``2d`` (one shared shape + k(theta_o)).
+    """
+    model = parse(model) if not isinstance(model, BRDF) else model
+    if not model.isotropic:
+        raise BakeError(f"{model.spec}: lobe fitting needs an isotropic BRDF")
+    if mode not in ("3d", "2d"):
+        raise BakeError(f"mode must be '3d' or '2d', not {mode!r}")
+    if int(slices) != slices or not 2 <= slices <= MAX_SLICES:
+        raise BakeError(f"slices must be a whole number in [2, {MAX_SLICES}], not {slices!r}")
+    if int(lobes) != lobes or not 1 <= lobes <= MAX_LOBES:
+        raise BakeError(f"lobes must be a whole number in [1, {MAX_LOBES}], not {lobes!r}")
+    if mode == "2d" and lobes != 1:
+        raise BakeError("the 2D mode has a single lobe (lobes=1)")
+    mus = slice_nodes(int(slices))
+    shared = None
+    if mode == "2d":
+        shared = np.asarray(_fit_slice(model, 1.0, 1).lobes[0].profile)
+    fitted = []
+    for index, mu in enumerate(mus):
+        fitted.append(_fit_slice(model, mu, int(lobes), shared))
+        report(progress, (index + 1) / len(mus), f"fitted slice {index + 1}/{len(mus)}")
+    _cluster(fitted)
+    lobe_count = max(len(s.lobes) for s in fitted)
+    return Fit(spec=model.spec, spec_hash=model.spec_hash(), mode=mode, slices=fitted,
+               lobes=lobe_count)

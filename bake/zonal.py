@@ -1,0 +1,196 @@
+"""Convolution of a lat-long environment with a zonal (radially symmetric) kernel.
+
+For a kernel k(cos gamma) that depends only on the angle gamma between an
+input direction l and the output direction c,
+
+    E(c) = sum over input texels of L(l) omega(l) k(l . c),
+
+is invariant under rotation about the pole, so for every pair of latitude
+rows (output row a, input row b) it is a circular convolution along
+longitude: E_a = IFFT( sum_b FFT(L_b) * FFT(K_ab) ), with K_ab(dphi) the
+kernel between the two rows at longitude difference dphi. The cost is
+O(H_out H_in W log W) whatever the kernel's width, against O(H^2 W^2) for
+the direct sum (MEASURED.md: 2e-13 agreement, 0.06 s for a 128 x 64 slice).
+
+Narrow kernels are integrated over each input texel with s x s sub-samples
+(``supersample``) instead of being point-sampled at texel centres, and each
+output row's kernel is normalized to the kernel's exact integral, so a
+constant environment gives exactly integral(k) times the constant.
+"""
+
+import functools
+import math
+
+import numpy as np
+
+from .envmap import get_layout
+from .errors import BakeError
+from .progress import report
+
+__all__ = ["zonal_convolve", "kernel_integral", "brute_force_convolve"]
+
+#: Output rows processed together (bounds the kernel spectrum's memory).
+_ROW_CHUNK_BYTES = 1 << 27
+
+
+@functools.lru_cache(maxsize=4)
+def _gamma_rule(nodes: int):
+    """Nodes gamma = pi t^2 (dense near 0, where narrow kernels live) and weights."""
+    t, w = np.polynomial.legendre.leggauss(nodes)
+    t = 0.5 * (t + 1.0)
+    gamma = np.pi * t * t
+    return gamma, 0.5 * w * 2.0 * np.pi * t * np.sin(gamma)
+
+
+def kernel_integral(kernel, nodes: int = 1024) -> float:
+    """2 pi * integral over gamma in [0, pi] of k(cos gamma) sin(gamma) d gamma.
+
+    Gauss-Legendre in t with gamma = pi t^2: exact to ~1e-10 for lobes as
+    narrow as a Phong exponent of 10^5.
+    """
+    gamma, weights = _gamma_rule(nodes)
+    return float(2.0 * np.pi * np.sum(np.asarray(kernel(np.cos(gamma)), dtype=np.float64)
+                                      * weights))
+
+
+class _Table:
+    """A zonal kernel tabulated on u = sqrt(1 - cos gamma) (uniform, 16384 nodes).
+
+    u is proportional to gamma near the lobe centre, so narrow lobes keep
+    their resolution; a lookup is one multiply, a floor and a lerp (no arccos).
+    """
+
+    NODES = 16384
+
+    def __init__(self, kernel):
+        self.u_max = math.sqrt(2.0)
+        u = np.linspace(0.0, self.u_max, self.NODES)
+        self.values = np.asarray(kernel(1.0 - u * u), dtype=np.float64)
+        self.values = np.append(self.values, self.values[-1]).astype(np.float32)
+        self.scale = (self.NODES - 1) / self.u_max
+        peak = float(np.abs(self.values).max())
+        significant = np.nonzero(np.abs(self.values) > 1e-9 * peak)[0] if peak > 0 else [0]
+        last_u = u[min(int(significant[-1]) + 1, self.NODES - 1)]
+        #: Angle beyond which the kernel is below 1e-9 of its peak (rad).
+        self.support = 2.0 * math.asin(min(last_u / math.sqrt(2.0), 1.0))
+
+    def __call__(self, cos_gamma):
+        u = np.sqrt(np.maximum(1.0 - cos_gamma, 0.0)) * self.scale
+        index = np.minimum(u.astype(np.int32), self.NODES - 1)
+        frac = (u - index).astype(np.float32)
+        low = self.values[index]
+        return low + (self.values[index + 1] - low) * frac
+
+
+def _rows(height):
+    """Centre latitudes (polar angles) and exact solid-angle row factors of a lat-long map."""
+    theta = np.pi * (np.arange(height) + 0.5) / height
+    edges = np.cos(np.pi * np.arange(height + 1) / height)
+    return theta, edges[:-1] - edges[1:]
+
+
+def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, normalize=True,
+                   progress=None):
+    """Convolve a lat-long image (H, W, C) with a zonal kernel.
+
+    kernel: vectorized function of cos(gamma) (any shape) -> weights (1/sr).
+    out_height: output rows (default H); the output has the input's W columns,
+    shape (out_height, W, C), float32. ``supersample``: sub-samples per
+    input-texel side for integrating the kernel. ``normalize``: rescale each
+    output row's discrete kernel to the kernel's exact integral.
+    """
+    image = np.asarray(image)
+    get_layout("latlong").check_image(image)
+    height, width, channels = image.shape
+    out_height = int(out_height or height)
+    if out_height < 1:
+        raise BakeError(f"output height must be >= 1, not {out_height}")
+    s = int(supersample)
+    if not 1 <= s <= 16:
+        raise BakeError(f"supersample must be in [1, 16], not {supersample}")
+    theta_in_edges = np.pi * np.arange(height + 1) / height
+    theta_out, _ = _rows(out_height)
+    # Sub-sample positions within an input texel: latitude and longitude offsets.
+    sub = (np.arange(s) + 0.5) / s
+    theta_sub = theta_in_edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
+    cos_edges = np.cos(theta_in_edges)
+    # Exact solid angle of each latitude sub-band, per longitude texel.
+    band_edges = theta_in_edges[:-1, None] + np.arange(s + 1)[None, :] * (np.pi / height / s)
+    band_omega = (np.cos(band_edges[:, :-1]) - np.cos(band_edges[:, 1:])) * (2 * np.pi / width / s)
+    del cos_edges
+    # The kernel is even in dphi (and the sub-offsets are symmetric): compute
+    # columns 0..W/2 and mirror the rest.
+    half = width // 2 + 1
+    dphi = 2.0 * np.pi * (np.arange(half)[:, None] + (sub[None, :] - 0.5)) / width  # (W/2+1, s)
+    cos_dphi = np.cos(dphi)
+    target = kernel_integral(kernel) if normalize else None
+    table = _Table(kernel)
+    spectrum = np.fft.rfft(image.astype(np.float64), axis=1)  # (H, F, C)
+    freqs = spectrum.shape[1]
+    out = np.empty((out_height, width, channels), dtype=np.float32)
+    per_row = height * width * s * s * 8 * 3
+    chunk = max(1, _ROW_CHUNK_BYTES // max(per_row, 1))
+    # Narrow kernels: small chunks keep each chunk's input band narrow too.
+    band_rows = (table.support + np.pi / height) / (np.pi / out_height)
+    chunk = int(min(chunk, max(4, 2 * band_rows)))
+    sin_sub, cos_sub = np.sin(theta_sub), np.cos(theta_sub)
+    # Input rows farther in latitude than the kernel's support (plus a texel)
+    # cannot contribute: each chunk of output rows reads only its band.
+    reach = table.support + np.pi / height
+    theta_in = np.pi * (np.arange(height) + 0.5) / height
+    for start in range(0, out_height, chunk):
+        stop = min(start + chunk, out_height)
+        ta = theta_out[start:stop]
+        band = np.nonzero((theta_in >= ta.min() - reach) & (theta_in <= ta.max() + reach))[0]
+        b0, b1 = (int(band[0]), int(band[-1]) + 1) if band.size else (0, 0)
+        sa, ca = np.sin(ta), np.cos(ta)
+        # cos(gamma) for (a, b, sub_b, m, sub_phi): cos a cos b + sin a sin b cos dphi.
+        cos_gamma = (ca[:, None, None, None, None] * cos_sub[None, b0:b1, :, None, None]
+                     + (sa[:, None, None, None, None] * sin_sub[None, b0:b1, :, None, None])
+                     * cos_dphi[None, None, None, :, :]).astype(np.float32)
+        weights = table(cos_gamma) * band_omega[None, b0:b1, :, None, None].astype(np.float32)
+        if s > 1:
+            weights = weights.sum(axis=(2, 4), dtype=np.float64)  # (A, H, W/2+1)
+        else:
+            weights = weights[:, :, 0, :, 0].astype(np.float64)
+        weights = np.concatenate([weights, weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
+        if normalize:
+            totals = weights.sum(axis=(1, 2))
+            scale = np.where(totals > 0, target / np.where(totals > 0, totals, 1.0), 0.0)
+            weights *= scale[:, None, None]
+        kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, H, F)
+        # Sum over input rows b for every frequency: (A, H, F) x (H, F, C) -> (A, F, C).
+        combined = np.einsum("abf,bfc->afc", kernel_spectrum, spectrum[b0:b1], optimize=True)
+        out[start:stop] = np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
+        report(progress, stop / out_height, f"convolving rows {stop}/{out_height}")
+    del freqs
+    return out
+
+
+def brute_force_convolve(directions, values, solid_angles, kernel, targets, normalize=True,
+                         chunk=256):
+    """Reference: E(c) = sum_t L_t omega_t k(d_t . c) over every texel t, per target c.
+
+    directions (T, 3), values (T, C), solid_angles (T,), targets (..., 3).
+    With ``normalize`` each target's weights are scaled to the kernel's
+    integral, like :func:`zonal_convolve`.
+    """
+    targets = np.asarray(targets, dtype=np.float64)
+    flat = targets.reshape(-1, 3)
+    out = np.empty((flat.shape[0], values.shape[1]))
+    target = kernel_integral(kernel) if normalize else None
+    for start in range(0, flat.shape[0], chunk):
+        cos = np.clip(flat[start:start + chunk] @ directions.T, -1.0, 1.0)
+        weights = np.asarray(kernel(cos), dtype=np.float64) * solid_angles[None, :]
+        if normalize:
+            totals = weights.sum(axis=1, keepdims=True)
+            weights *= target / np.where(totals > 0, totals, 1.0)
+        out[start:start + chunk] = weights @ values
+    return out.reshape(*targets.shape[:-1], values.shape[1])
+
+
+def suggested_supersample(kernel_width: float, texel: float) -> int:
+    """Sub-samples per side so that a kernel of angular ``kernel_width`` spans >= 3 of them."""
+    if kernel_width <= 0:
+        return 8
+    return int(np.clip(math.ceil(3.0 * texel / kernel_width), 1, 8))
