@@ -147,6 +147,68 @@ def cmd_brdf(args):
         print(f"wrote {plot_brdf(model, args.plot)}")
 
 
+def _positive_output(path, suffix):
+    path = Path(path)
+    if path.suffix.lower() != suffix:
+        raise BakeError(f"{path}: output file name must end in {suffix}")
+    if not path.parent.is_dir():
+        raise BakeError(f"{path.parent}: output folder does not exist")
+    return path
+
+
+def cmd_fit(args):
+    from . import lobes
+
+    output = _positive_output(args.output, ".json")
+    progress = None if args.quiet else LinePrinter()
+    result = lobes.fit(args.brdf, slices=args.slices, lobes=args.lobes, mode=args.mode,
+                       progress=progress)
+    result.save(output)
+    for s in result.slices:
+        print(f"cos(theta_o) = {s.mu:.3f}: {len(s.lobes)} lobe(s), offsets "
+              f"{[round(lobe.offset, 4) for lobe in s.lobes]} rad, relative RMS error "
+              f"{s.relative_rms_error:.4f}")
+    print(f"wrote {output}")
+
+
+def cmd_prefilter(args, mode=None):
+    from . import prefilter
+
+    output = _check_output(args.output)
+    mode = mode or args.mode
+    image, meta = _read_rgb(args.input, args.sanitize)
+    layout = args.source or _guess_layout(image.shape[:2], meta, args.input)
+    brdf_spec = getattr(args, "brdf", None) or "lambert:color=1"
+    progress = None if args.quiet else LinePrinter()
+    baked = prefilter.prefilter(image, brdf_spec, mode, args.size, slices=args.slices,
+                                lobes_count=args.lobes, layout=layout, levels=args.levels,
+                                preset=args.preset, method=args.method, progress=progress)
+    baked.meta["source"] = Path(args.input).name
+    baked.write(output)
+    print(f"wrote {output} ({mode}, {len(baked.layers)} layer(s)) and "
+          f"{output.with_suffix('.json')}")
+
+
+def _add_prefilter_options(p, with_brdf=True):
+    p.add_argument("input", help="probe EXR (cube strip or lat-long)")
+    if with_brdf:
+        p.add_argument("--brdf", required=True, help="BRDF spec, e.g. ggx:roughness=0.3")
+    p.add_argument("--from", dest="source", choices=["latlong", "cube"],
+                   help="probe layout (default: from metadata or shape)")
+    p.add_argument("--size", required=True, type=int,
+                   help="lat-long rows N (N x 2N maps) or split-sum base cube face")
+    p.add_argument("--slices", type=int, default=16, help="view elevations K (default 16)")
+    p.add_argument("--lobes", type=int, default=1, help="lobes per slice (3d, default 1)")
+    p.add_argument("--levels", type=int, help="split-sum MIP levels (default 6, fewer if small)")
+    p.add_argument("--preset", default="khronos", choices=["khronos", "filament"],
+                   help="split-sum level-to-roughness mapping")
+    p.add_argument("--method", default="direct", choices=["direct", "sh"],
+                   help="irradiance: direct convolution or 9 SH coefficients")
+    p.add_argument("-o", "--output", required=True, help="output EXR (+ .json sidecar)")
+    p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+
+
 def _build_parser():
     parser = _Parser(prog="python -m bake", description="Glossy's pure-NumPy baker.")
     parser.add_argument("--version", action="version", version=__version__)
@@ -175,6 +237,26 @@ def _build_parser():
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(run=cmd_mip)
+
+    p = commands.add_parser("fit", help="fit Kautz-McCool lobes to a BRDF (JSON)")
+    p.add_argument("--brdf", required=True, help="isotropic BRDF spec")
+    p.add_argument("--slices", type=int, default=16, help="view elevations K (default 16)")
+    p.add_argument("--lobes", type=int, default=1, help="lobes per slice (default 1)")
+    p.add_argument("--mode", default="3d", choices=["3d", "2d"], help="3d or 2d lobe")
+    p.add_argument("-o", "--output", required=True, help="output .json")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_fit)
+
+    from .prefilter import MODES
+
+    p = commands.add_parser("prefilter", help="prefilter a probe for a BRDF")
+    _add_prefilter_options(p)
+    p.add_argument("--mode", default="3d", choices=list(MODES), help="prefilter mode")
+    p.set_defaults(run=cmd_prefilter)
+
+    p = commands.add_parser("irradiance", help="diffuse irradiance map of a probe")
+    _add_prefilter_options(p, with_brdf=False)
+    p.set_defaults(run=lambda args: cmd_prefilter(args, "irradiance"))
 
     p = commands.add_parser("brdf", help="describe a BRDF spec; --plot draws it")
     p.add_argument("spec", help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")

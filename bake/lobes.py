@@ -195,9 +195,17 @@ def _profiles(function, centre):
 
 
 def _integral(profile):
-    """2 pi * integral of profile(gamma) sin(gamma) d gamma on GAMMA (trapezoid)."""
-    integrand = np.asarray(profile) * np.sin(GAMMA)
-    return float(2.0 * np.pi * np.trapz(integrand, GAMMA))
+    """2 pi * integral of profile(gamma) sin(gamma) d gamma, exact for the piecewise-
+    linear interpolation of the profile on GAMMA (as lookups evaluate it)."""
+    p = np.asarray(profile, dtype=np.float64)
+    g0, g1 = GAMMA[:-1], GAMMA[1:]
+    slope = (p[1:] - p[:-1]) / (g1 - g0)
+    intercept = p[:-1] - slope * g0
+
+    def antiderivative(g):  # of (intercept + slope g) sin g
+        return -intercept * np.cos(g) + slope * (np.sin(g) - g * np.cos(g))
+
+    return float(2.0 * np.pi * np.sum(antiderivative(g1) - antiderivative(g0)))
 
 
 def _unit(profile):

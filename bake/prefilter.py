@@ -106,6 +106,20 @@ def _filter(work, kernel, progress=None):
     height = work.shape[0]
     texel = np.pi / height
     half = _half_width(kernel)
+    if half < 0.25 * texel / 8:
+        # Narrower than the finest sub-texel spacing: below the map's
+        # resolution the lobe's shape cannot matter, only its energy. Use a
+        # Gaussian of a quarter texel carrying the same integral.
+        from .zonal import kernel_integral
+
+        energy = kernel_integral(kernel)
+        sigma = 0.25 * texel
+
+        def kernel(cos_gamma, energy=energy, sigma=sigma):
+            gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
+            return energy * np.exp(-0.5 * (gamma / sigma) ** 2) / (2 * np.pi * sigma**2)
+
+        half = _half_width(kernel)
     supersample = suggested_supersample(half, texel)
     core_radius = 6.0 * half
     coarse_rows = int(np.clip(math.ceil(4.0 * np.pi / core_radius), 32, height))
@@ -221,7 +235,7 @@ class BakedMap:
         r /= np.linalg.norm(r, axis=-1, keepdims=True)
         toward = mu[..., None] * r - n  # in the (n, r) plane, away from n
         length = np.linalg.norm(toward, axis=-1, keepdims=True)
-        fallback = np.cross(n, [0.0, 0.0, 1.0] if False else [0.3, 0.5, 0.8])
+        fallback = np.cross(n, [0.3, 0.5, 0.8])  # any tangent: offsets vanish at mu = 1
         toward = np.where(length > 1e-9, toward / np.maximum(length, 1e-300),
                           fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
         return n, mu, r, toward
@@ -241,7 +255,12 @@ class BakedMap:
         return weights
 
     def shade(self, normal, view):
-        """Reflected radiance (..., 3) for world-space unit normals and views (surface to viewer)."""
+        """Reflected radiance (..., 3) for world-space unit normals and views.
+
+        normal, view: (..., 3) world-space directions (view points from the
+        surface to the viewer), normalized here. Back-facing views (n.v < 0)
+        are treated as grazing.
+        """
         n, mu, r, toward = self._frame(normal, view)
         if self.mode in ("3d", "2d", "phong"):
             return self._shade_lobes(mu, r, toward)
@@ -327,12 +346,12 @@ def _base_meta(mode, model, probe_layout, probe_shape, size):
 
 
 def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
-              layout=None, levels=6, preset="khronos", method="direct", progress=None):
+              layout=None, levels=None, preset="khronos", method="direct", progress=None):
     """Prefilter a probe (cube strip or lat-long (H, W, 3)) for a BRDF; returns a BakedMap.
 
     size: lat-long output height N (maps are N x 2N), or the base cube face for
     ``split-sum``. slices / lobes_count: the lobe fit (3d, 2d, phong tables).
-    levels / preset: the split-sum chain. method: ``direct`` or ``sh`` (irradiance).
+    levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes). method: ``direct`` or ``sh`` (irradiance).
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
     """
     if mode not in MODES:
@@ -425,6 +444,8 @@ def _split_sum(image, probe_layout, model, size, levels, preset, progress):
         raise BakeError(f"the split-sum mode is for isotropic GGX BRDFs, not {model.spec}")
     if preset not in PRESETS:
         raise BakeError(f"unknown preset {preset!r} (use one of: {', '.join(PRESETS)})")
+    if levels is None:
+        levels = min(6, int(math.log2(size)) + 1)
     if int(levels) != levels or not 1 <= levels <= int(math.log2(size)) + 1:
         raise BakeError(f"levels must be in [1, {int(math.log2(size)) + 1}] for size {size}")
     levels = int(levels)

@@ -1,0 +1,94 @@
+"""Kautz-McCool lobe fits: energy, offsets, multi-lobe error, serialization, bad input."""
+
+import numpy as np
+import pytest
+
+from bake import brdf, lobes
+from bake.errors import BakeError
+from tests.bake.reference import reference_albedo, sphere_quadrature
+
+
+def lobe_integral(fit, k):
+    """Integral over the sphere of the fitted lobes of slice k (independent quadrature)."""
+    s = fit.slices[k]
+    total = np.zeros(3)
+    for lobe in s.lobes:
+        centre = lobes._centre(lobes._view(s.mu), lobe.offset)
+        value = sphere_quadrature(lambda d, lobe=lobe, centre=centre: lobe.shape(d @ centre),
+                                  axis=centre)
+        total += value * np.asarray(lobe.weight)
+    return total
+
+
+@pytest.mark.parametrize("spec", ["ggx:alpha=0.1", "ggx:alpha=0.3", "ggx:alpha=0.6",
+                                  "ward:alpha=0.04", "ward:alpha=0.1", "ward:alpha=0.3"])
+def test_each_slice_reproduces_the_directional_albedo(spec):
+    fit = lobes.fit(spec, slices=6)
+    model = brdf.parse(spec)
+    for k, s in enumerate(fit.slices):
+        assert np.isfinite(s.rms_error) and s.rms_error >= 0
+        assert 0 <= s.relative_rms_error < 50
+        albedo = reference_albedo(model, lobes._view(s.mu))
+        np.testing.assert_allclose(lobe_integral(fit, k), albedo, rtol=0.01,
+                                   err_msg=f"{spec} slice {k}")
+
+
+@pytest.mark.parametrize("spec", ["sum(lambert:color=0.3; ggx:roughness=0.3)",
+                                  "phong:n=40,ks=0.5,kd=0.4", "ward:alpha=0.1"])
+def test_multi_lobe_error_falls_as_lobes_are_added(spec):
+    errors = [np.array([s.relative_rms_error for s in lobes.fit(spec, slices=6, lobes=n).slices])
+              for n in (1, 2, 3)]
+    for fewer, more in zip(errors, errors[1:], strict=False):
+        assert np.all(more <= fewer + 1e-9)
+    assert errors[2][1:-1].mean() < 0.95 * errors[0][1:-1].mean()
+
+
+def test_peak_offsets_follow_the_brdf():
+    # Lambert: f cos peaks at the normal, an offset of -theta_o from the mirror.
+    fit = lobes.fit("lambert", slices=5)
+    for s in fit.slices:
+        assert abs(s.lobes[0].offset + np.arccos(s.mu)) < 1e-6
+    # Lewis' Phong: peak of cos^n(t - t_r) cos(t) solves n tan(t - t_r) = -tan(t).
+    n = 30.0
+    fit = lobes.fit(f"phong:n={n:g}", slices=5)
+    for s in fit.slices[1:]:
+        t_r = -np.arccos(s.mu)
+        lo, hi = t_r, 0.0
+        for _ in range(200):  # bisection, independent of the library's search
+            mid = 0.5 * (lo + hi)
+            g = n * np.tan(mid - t_r) + np.tan(mid)
+            lo, hi = (mid, hi) if g < 0 else (lo, mid)
+        expected = t_r - 0.5 * (lo + hi)  # offset: from the mirror towards the horizon
+        assert abs(s.lobes[0].offset - expected) < 1e-5
+
+
+def test_fit_serializes_and_is_reproducible(tmp_path):
+    first = lobes.fit("sum(lambert:color=0.2; ggx:roughness=0.4)", slices=4, lobes=2)
+    second = lobes.fit("sum(lambert:color=0.2; ggx:roughness=0.4)", slices=4, lobes=2)
+    assert first.to_json() == second.to_json()
+    path = first.save(tmp_path / "fit.json")
+    loaded = lobes.Fit.load(path)
+    assert loaded.to_json() == first.to_json()
+    wi = np.array([[0.2, 0.1, 0.97], [-0.5, 0.2, 0.84]])
+    np.testing.assert_array_equal(loaded.evaluate(2, wi), first.evaluate(2, wi))
+
+
+def test_2d_mode_shares_one_shape_with_a_weight_per_slice():
+    fit = lobes.fit("ggx:roughness=0.5", slices=5, mode="2d")
+    shapes = {tuple(s.lobes[0].profile) for s in fit.slices}
+    assert len(shapes) == 1
+    for s in fit.slices:
+        np.testing.assert_allclose(s.lobes[0].weight, s.albedo, rtol=1e-12)
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"model": "lambert:color=0"}, "reflects nothing"),
+    ({"model": "ggx:roughness=0.3,anisotropy=0.5"}, "isotropic"),
+    ({"model": "ggx:roughness=0.3", "slices": 1}, "slices must be"),
+    ({"model": "ggx:roughness=0.3", "lobes": 9}, "lobes must be"),
+    ({"model": "ggx:roughness=0.3", "mode": "4d"}, "mode must be"),
+    ({"model": "ggx:roughness=0.3", "mode": "2d", "lobes": 2}, "single lobe"),
+])
+def test_bad_fit_requests(kwargs, message):
+    with pytest.raises(BakeError, match=message):
+        lobes.fit(**kwargs)
