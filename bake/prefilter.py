@@ -351,7 +351,8 @@ def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_coun
 
     size: lat-long output height N (maps are N x 2N), or the base cube face for
     ``split-sum``. slices / lobes_count: the lobe fit (3d, 2d, phong tables).
-    levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes). method: ``direct`` or ``sh`` (irradiance).
+    levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes).
+    method: ``direct`` or ``sh`` (irradiance).
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
     """
     if mode not in MODES:
