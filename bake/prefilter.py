@@ -26,6 +26,7 @@ of the node-group lookup; ``BakedMap.write`` stores an EXR (parameters in the
 ``glossy`` header attribute) and a JSON sidecar; :func:`load` reads one back.
 """
 
+import functools
 import json
 import math
 import os
@@ -147,8 +148,8 @@ def _filter(work, kernel, progress=None):
 
 
 def _working_rows(kernel, minimum, probe_rows, cap=1024):
-    """Lat-long rows for filtering: >= minimum, and fine enough that the kernel
-    spans about 3 texels, but no finer than 3x the probe's own resolution."""
+    """Lat-long rows for filtering: >= minimum, and fine enough that the kernel's
+    half width spans about 2 texels, but no finer than 3x the probe's resolution."""
     width = _half_width(kernel)
     wanted = math.ceil(3.0 * np.pi / max(width, 1e-6))
     return int(min(max(minimum, wanted), max(minimum, 3 * probe_rows), cap))
@@ -181,10 +182,13 @@ def split_sum_kernel(roughness):
     return kernel
 
 
-def dfg_table(size=32, samples=1024):
+@functools.lru_cache(maxsize=4)
+def dfg_table(size=32, samples=256):
     """Split-sum DFG table (size, size, 3): rows n.v (mu = (i + 0.5) / size, top row
     first), columns roughness ((j + 0.5) / size); channels A = integral f cos (1 - Fc),
-    B = integral f cos Fc with Fc = (1 - v.h)^5, for Cycles' GGX; third channel A + B."""
+    B = integral f cos Fc with Fc = (1 - v.h)^5, for Cycles' GGX; third channel A + B.
+    Visible-normal importance sampling with Hammersley points: about 1e-3 accurate.
+    The returned array is shared (cached): copy it before changing it."""
     from .brdf.base import hammersley
     from .brdf.cycles import GGX
 
@@ -346,13 +350,14 @@ def _base_meta(mode, model, probe_layout, probe_shape, size):
 
 
 def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
-              layout=None, levels=None, preset="khronos", method="direct", progress=None):
+              layout=None, levels=None, preset="khronos", method="direct", dfg=True,
+              progress=None):
     """Prefilter a probe (cube strip or lat-long (H, W, 3)) for a BRDF; returns a BakedMap.
 
     size: lat-long output height N (maps are N x 2N), or the base cube face for
     ``split-sum``. slices / lobes_count: the lobe fit (3d, 2d, phong tables).
     levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes).
-    method: ``direct`` or ``sh`` (irradiance).
+    method: ``direct`` or ``sh`` (irradiance). dfg: include the split-sum DFG table.
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
     """
     if mode not in MODES:
@@ -363,7 +368,7 @@ def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_coun
     model = parse(fit.spec) if fit else (model_or_fit if isinstance(model_or_fit, BRDF)
                                         else parse(model_or_fit))
     if mode == "split-sum":
-        return _split_sum(image, probe_layout, model, size, levels, preset, progress)
+        return _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress)
     work = convert(image, probe_layout, "latlong", size)
     meta = _base_meta(mode, model, probe_layout, image.shape, size)
     if mode == "irradiance":
@@ -439,7 +444,33 @@ def _irradiance(work, model, meta, method, progress):
     return BakedMap("irradiance", {"irradiance": irradiance}, meta)
 
 
-def _split_sum(image, probe_layout, model, size, levels, preset, progress):
+class _Source:
+    """A probe with its exact 2x2 box MIP pyramid: conversions to smaller maps
+    start from the level just finer than needed, so they stay cheap (few
+    sub-samples per texel) without aliasing."""
+
+    def __init__(self, image, layout):
+        from .envmap.mip import pyramid
+
+        self.layout = layout
+        self.levels = pyramid(image, layout, "box") if layout in ("cube", "latlong") else [image]
+
+    def convert(self, layout, size):
+        source = get_layout(self.layout)
+        target = get_layout(layout)
+        needed = target.covered_texels(target.shape(size))
+        chosen = self.levels[0]
+        for level in self.levels:
+            if source.covered_texels(level.shape[:2]) >= needed:
+                chosen = level
+        ratio = source.covered_texels(chosen.shape[:2]) / needed
+        # A level already box-filtered close to the target's resolution needs
+        # few sub-samples: 2 x 2 when it has at most 4x the target's texels.
+        samples = 2 if ratio <= 4.0 else None
+        return convert(chosen, self.layout, layout, size, samples=samples)
+
+
+def _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress):
     if model.name not in ("ggx", "ggx_multiscatter", "principled_metallic") or not \
             model.isotropic:
         raise BakeError(f"the split-sum mode is for isotropic GGX BRDFs, not {model.spec}")
@@ -453,25 +484,26 @@ def _split_sum(image, probe_layout, model, size, levels, preset, progress):
     roughness = [PRESETS[preset](index / max(levels - 1, 1)) for index in range(levels)]
     layers = {}
     cube = get_layout("cube")
+    source = _Source(image, probe_layout)
     for index, r in enumerate(roughness):
         face = max(size >> index, 2)
         if r <= 1e-4:
             same = probe_layout == "cube" and image.shape[0] == face
-            layers[f"level{index}"] = image.copy() if same else convert(image, probe_layout,
-                                                                         "cube", face)
+            layers[f"level{index}"] = image.copy() if same else source.convert("cube", face)
         else:
             # Filter on a lat-long grid about twice as fine as the level's
             # faces, then read the result at the level's texel centres (as
             # cmgen and the Khronos sampler filter per texel direction).
             kernel = split_sum_kernel(r)
             rows = _working_rows(kernel, max(2 * face, 32), _probe_rows(image, probe_layout))
-            work = convert(image, probe_layout, "latlong", rows)
+            work = source.convert("latlong", rows)
             filtered = _filter(work, kernel)
             centres = cube.texel_directions(cube.shape(face))
             layers[f"level{index}"] = get_layout("latlong").sampler(filtered)(centres).astype(
                 np.float32)
         report(progress, (index + 1) / (levels + 1), f"split-sum level {index}")
-    layers["dfg"] = dfg_table()
+    if dfg:
+        layers["dfg"] = dfg_table().copy()
     report(progress, 1.0, "DFG table")
     meta = _base_meta("split-sum", model, probe_layout, image.shape, size)
     material = float(np.sqrt(np.sqrt(model.ax * model.ay)))  # perceptual roughness

@@ -160,7 +160,9 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
             weights *= scale[:, None, None]
         kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, H, F)
         # Sum over input rows b for every frequency: (A, H, F) x (H, F, C) -> (A, F, C).
-        combined = np.einsum("abf,bfc->afc", kernel_spectrum, spectrum[b0:b1], optimize=True)
+        # Per frequency, a (rows x band) by (band x channels) product: batched BLAS.
+        combined = np.matmul(kernel_spectrum.transpose(2, 0, 1),
+                             spectrum[b0:b1].transpose(1, 0, 2)).transpose(1, 0, 2)
         out[start:stop] = np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
         report(progress, stop / out_height, f"convolving rows {stop}/{out_height}")
     del freqs

@@ -6,7 +6,14 @@ Writes to out/demo/:
 - forest_cube256.mip<k>.exr, the solid-angle-weighted gauss4 MIP pyramid;
 - contact_sheet.png, tonemapped for viewing only: top row lat-long source,
   sphere map and dual paraboloid; then the cube strip (+X -X +Z -Z -Y +Y);
-  then MIP levels 2 to 6 of the cube, enlarged to the same size.
+  then MIP levels 2 to 6 of the cube, enlarged to the same size;
+- forest_ward3d.exr and forest_ggx3d.exr: Kautz-McCool 3D maps (16 slices of
+  256 x 128) for Ward alpha 0.04 (the paper's teapot) and GGX roughness 0.6,
+  each with its .json sidecar;
+- slices.png: slices of both 3D maps at four view elevations (the paper's
+  Figure 8), rows Ward then GGX, left to right cos(theta_o) = 0.02 .. 1;
+- fit_error.png: the fits' mean relative RMS error against the number of
+  lobes (the paper's Figure 7).
 """
 
 import sys
@@ -16,6 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+import numpy as np  # noqa: E402
+
 from bake import exr, preview  # noqa: E402
 from bake.envmap import convert, radiant_power  # noqa: E402
 from bake.envmap.mip import pyramid  # noqa: E402
@@ -23,6 +32,50 @@ from bake.progress import LinePrinter  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 SIZE = 256
+
+
+def kautz_mccool(image, cube, out, exposure):
+    """3D maps, the slice sheet (Figure 8) and the error-vs-lobes plot (Figure 7)."""
+    from bake import lobes, prefilter
+
+    written, rows = [], []
+    probe = convert(cube, "cube", "cube", 128)
+    for name, spec in (("ward3d", "ward:alpha=0.04"), ("ggx3d", "ggx:roughness=0.6")):
+        baked = prefilter.prefilter(probe, spec, "3d", 128, slices=16, progress=LinePrinter())
+        baked.meta["source"] = "forest.exr"
+        path = baked.write(out / f"forest_{name}.exr")
+        written += [path, path.with_suffix(".json")]
+        picks = [0, 5, 10, 15]
+        rows.append([preview.tonemap(convert(baked.layers[f"slice.{k}"], "latlong", "latlong",
+                                             96), exposure) for k in picks])
+    sheet = out / "slices.png"
+    preview.write_png(sheet, preview.contact_sheet(rows))
+    written.append(sheet)
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: fit_error.png skipped")
+        return written
+    figure, axis = plt.subplots(figsize=(6, 4))
+    for spec in ("ward:alpha=0.1", "ggx:roughness=0.4", "sum(lambert:color=0.3; ggx:roughness=0.3)",
+                 "phong:n=40,ks=0.5,kd=0.4"):
+        errors = [np.mean([s.relative_rms_error for s in lobes.fit(spec, 8, count).slices[1:]])
+                  for count in (1, 2, 3, 4)]
+        axis.plot([1, 2, 3, 4], errors, marker="o", label=spec)
+    axis.set_xlabel("lobes per slice")
+    axis.set_ylabel("mean relative RMS error (cosine-weighted)")
+    axis.set_xticks([1, 2, 3, 4])
+    axis.legend(fontsize=7)
+    axis.grid(alpha=0.3)
+    figure.tight_layout()
+    plot = out / "fit_error.png"
+    figure.savefig(plot, dpi=100)
+    plt.close(figure)
+    written.append(plot)
+    return written
 
 
 def main() -> int:
@@ -60,6 +113,7 @@ def main() -> int:
     preview.write_png(sheet, preview.contact_sheet(rows))
     written.append(sheet)
 
+    written += kautz_mccool(image, maps["cube"], out, exposure)
     power = radiant_power(image, "latlong")
     print(f"radiant power (sum L dw, RGB): source {power.round(4)}, "
           f"cube {radiant_power(maps['cube'], 'cube').round(4)}")

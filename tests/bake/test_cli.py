@@ -126,3 +126,59 @@ def test_brdf_command_bad_spec_is_one_line(tmp_path, spec, message):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0]
     assert not plot.exists()
+
+
+def test_fit_and_prefilter_commands(tmp_path, hdri_dir):
+    fit = tmp_path / "fit.json"
+    result = run_bake("fit", "--brdf", "ggx:roughness=0.4", "--slices", "4", "-o", fit, "-q")
+    assert result.returncode == 0, result.stderr
+    assert "relative RMS error" in result.stdout and fit.exists()
+    out = tmp_path / "g3d.exr"
+    result = run_bake("prefilter", hdri_dir / "forest.exr", "--brdf", "ggx:roughness=0.4",
+                      "--size", "32", "--slices", "4", "-o", out)
+    assert result.returncode == 0, result.stderr
+    assert "%]" in result.stderr  # progress line
+    from bake import prefilter
+
+    baked = prefilter.load(out)
+    assert baked.mode == "3d" and baked.meta["slices"] == 4 and baked.meta["source"] == "forest.exr"
+    assert out.with_suffix(".json").exists()
+    for mode in ("split-sum", "2d"):
+        path = tmp_path / f"{mode}.exr"
+        assert run_bake("prefilter", hdri_dir / "forest.exr", "--brdf", "ggx:roughness=0.4",
+                        "--mode", mode, "--size", "16", "-o", path, "-q").returncode == 0
+        assert prefilter.load(path).mode == mode
+    irr = tmp_path / "irr.exr"
+    assert run_bake("irradiance", hdri_dir / "forest.exr", "--size", "16", "-o", irr,
+                    "--method", "sh", "-q").returncode == 0
+    assert prefilter.load(irr).meta["method"] == "sh"
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--brdf", "lambert:color=0", "--size", "16"], "reflects nothing"),
+    (["--brdf", "ggx:roughness=0.3", "--size", "16", "--slices", "1"], "slices must be"),
+    (["--brdf", "ggx:roughness=0.3", "--size", "99999"], "size must be"),
+    (["--brdf", "ggx:roughness=0.3", "--size", "16", "--mode", "split-sum", "--levels", "9"],
+     "levels must be"),
+    (["--brdf", "ggx:roughnes=0.3", "--size", "16"], "unknown key"),
+])
+def test_prefilter_bad_input_is_one_line_and_no_file(tmp_path, hdri_dir, args, message):
+    out = tmp_path / "bad.exr"
+    result = run_bake("prefilter", hdri_dir / "forest.exr", *args, "-o", out, "-q")
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1 and message in lines[0]
+    assert not out.exists() and not out.with_suffix(".json").exists()
+
+
+def test_prefilter_refuses_a_nan_probe(tmp_path):
+    import OpenEXR
+
+    image = np.ones((8, 48, 3), np.float32)
+    image[1, 2, 0] = np.nan
+    path = tmp_path / "nan.exr"
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {c: np.ascontiguousarray(image[..., i]) for i, c in enumerate("RGB")}
+                 ).write(str(path))
+    out = tmp_path / "o.exr"
+    result = run_bake("prefilter", path, "--brdf", "ggx:roughness=0.3", "--size", "8", "-o", out)
+    assert result.returncode == 2 and "NaN" in result.stderr and not out.exists()
