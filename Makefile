@@ -27,6 +27,7 @@ extension: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/envmap.py
 	$(PY) benchmarks/brdf.py
+	$(PY) benchmarks/prefilter.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache

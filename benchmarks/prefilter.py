@@ -3,15 +3,15 @@
 Prints, in one run:
 1. a small case (16 slices of a 3D map, GGX roughness 0.5, from a 6x32^2
    probe): Glossy's time and the brute-force all-pairs time, and their agreement;
-2. the method's own error: shade(normal, view) of each mode against the
+2. forest.exr (1024x512) to a 6x128^2 GGX split-sum chain, Glossy against
+   cmgen (Debian libfilament-tools, installed here if missing) at 256 and
+   1024 samples: CPU time (best of 3) and each level's relative RMS error
+   against a brute-force reference at 400 random texels per level;
+3. the method's own error: shade(normal, view) of each mode against the
    brute-force reflected-radiance integral of the true BRDF over the probe
-   (forest.exr as a 6x64^2 cube), for GGX roughness 0.1 / 0.3 / 0.6 and Ward,
+   (forest.exr as a 6x128^2 cube), for GGX roughness 0.1 / 0.3 / 0.6 and Ward,
    at 400 random normals and views (half of them grazing, n.v < 0.3): median
    and 95th-percentile relative luminance error per mode and slice count;
-3. forest.exr (1024x512) to a 6x128^2 GGX split-sum chain, Glossy against
-   cmgen (Debian libfilament-tools, installed here if missing) at 256 and
-   1024 samples: CPU time and each level's relative RMS error against a
-   brute-force reference at 400 random texels per level;
 4. a full 3D map, 16 slices of 256x128 from a 6x128^2 probe (target < 10 s).
 
     .venv/bin/python benchmarks/prefilter.py [--quick]
@@ -103,7 +103,7 @@ def method_error(forest, quick):
     views = mu[:, None] * normals + np.sqrt(1 - mu**2)[:, None] * side
     grazing = mu < 0.3
     size = 64 if quick else 128
-    print(f"2. method error vs the true BRDF over the probe ({probe.shape[0]}^2 faces), "
+    print(f"3. method error vs the true BRDF over the probe ({probe.shape[0]}^2 faces), "
           f"{count} normals/views ({grazing.sum()} grazing), maps {2 * size}x{size}:")
     print(f"   {'BRDF':22s} {'mode':18s} {'median':>7s} {'p95':>7s} {'grazing median':>15s}")
     for spec in ("ggx:roughness=0.1", "ggx:roughness=0.3", "ggx:roughness=0.6", "ward:alpha=0.1"):
@@ -184,7 +184,7 @@ def cmgen_directions(level0, forest):
 
 
 def versus_cmgen(forest, quick):
-    print("3. forest.exr -> 6x128^2 GGX split-sum chain: Glossy vs cmgen")
+    print("2. forest.exr -> 6x128^2 GGX split-sum chain: Glossy vs cmgen")
     if not ensure_cmgen():
         print("   skipped: cmgen (Debian package libfilament-tools) cannot be installed here")
         return

@@ -92,3 +92,16 @@ def test_2d_mode_shares_one_shape_with_a_weight_per_slice():
 def test_bad_fit_requests(kwargs, message):
     with pytest.raises(BakeError, match=message):
         lobes.fit(**kwargs)
+
+
+def test_lobes_are_clustered_into_sequences_by_offset():
+    """Greedy order can swap lobes between slices; clustering restores sequences."""
+    def slice_with(offsets):
+        return lobes.SliceFit(mu=0.5, albedo=[1, 1, 1], lobes=[
+            lobes.LobeFit(offset=o, weight=[0.5] * 3, profile=[0.0] * lobes.GAMMA.size)
+            for o in offsets])
+
+    slices = [slice_with([0.0, -0.5]), slice_with([-0.48, 0.02]), slice_with([0.05, -0.45])]
+    lobes._cluster(slices)
+    assert [[lobe.offset for lobe in s.lobes] for s in slices] == [[0.0, -0.5], [0.02, -0.48],
+                                                                   [0.05, -0.45]]
