@@ -28,9 +28,9 @@ of the node-group lookup; ``BakedMap.write`` stores an EXR (parameters in the
 
 import functools
 import json
-from concurrent.futures import ThreadPoolExecutor
 import math
 import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
