@@ -115,6 +115,10 @@ class Kurt(_Mixture):
     def _weight_key(k):
         return "ks" + _suffix(k)
 
+    def _setup(self):
+        self.isotropic = all(self.params["mx" + _suffix(k)] == self.params["my" + _suffix(k)]
+                             for k in range(self._lobe_count()))
+
     def _lobe(self, k):
         p, s = self.params, _suffix(k)
         return np.asarray(p["ks" + s]), p["mx" + s], p["my" + s], p["f0" + s], p["alpha" + s]
@@ -173,6 +177,10 @@ class Lafortune(_Mixture):
     @staticmethod
     def _weight_key(k):
         return "rho" + _suffix(k)
+
+    def _setup(self):
+        self.isotropic = all(self.params["cx" + _suffix(k)] == self.params["cy" + _suffix(k)]
+                             for k in range(self._lobe_count()))
 
     def _lobe(self, k):
         p, s = self.params, _suffix(k)

@@ -105,3 +105,13 @@ def test_lobes_are_clustered_into_sequences_by_offset():
     lobes._cluster(slices)
     assert [[lobe.offset for lobe in s.lobes] for s in slices] == [[0.0, -0.5], [0.02, -0.48],
                                                                    [0.05, -0.45]]
+
+
+def test_isotropic_multi_lobe_models_can_be_fitted():
+    """Lafortune with cx = cy (and Kurt with mx = my) is isotropic, so it can be fitted."""
+    fit = lobes.fit("lafortune:rho=2,n=10,kd=0.1", slices=4)
+    assert len(fit.slices) == 4
+    with pytest.raises(BakeError, match="isotropic"):
+        lobes.fit("lafortune:rho=2,cx=-0.7,n=10", slices=4)
+    assert brdf.parse("kurt:mx=0.2,my=0.2").isotropic
+    assert not brdf.parse("kurt:mx=0.2,my=0.3").isotropic
