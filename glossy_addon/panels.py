@@ -29,5 +29,34 @@ class GLOSSY_PT_environment(bpy.types.Panel):
             layout.label(text=bpy.path.basename(settings.last_export), icon="FILE_IMAGE")
 
 
-classes = (GLOSSY_PT_environment,)
+class GLOSSY_PT_probe(bpy.types.Panel):
+    bl_label = "Probe"
+    bl_idname = "GLOSSY_PT_probe"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Glossy"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    def draw(self, context):
+        settings = context.object.glossy
+        layout = self.layout
+        column = layout.column(align=True)
+        column.prop(settings, "probe_source")
+        column.prop(settings, "centre_mode")
+        column.prop(settings, "probe_resolution")
+        if settings.probe_source == "RENDER":
+            column.prop(settings, "capture_engine")
+            column.prop(settings, "capture_samples")
+            column.prop(settings, "clip_start")
+            column.prop(settings, "clip_end")
+            column.prop(settings, "hide_self")
+        layout.operator("glossy.capture_probes", icon="RENDER_STILL")
+        if settings.probe_path:
+            layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
+
+
+classes = (GLOSSY_PT_environment, GLOSSY_PT_probe)
 register, unregister = bpy.utils.register_classes_factory(classes)

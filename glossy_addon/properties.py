@@ -46,5 +46,50 @@ class GlossySceneSettings(bpy.types.PropertyGroup):
         del bpy.types.Scene.glossy
 
 
-classes = (GlossySceneSettings,)
+class GlossyObjectSettings(bpy.types.PropertyGroup):
+    """Probe settings of one object (``Object.glossy``)."""
+
+    probe_resolution: bpy.props.IntProperty(
+        name="Probe Resolution", description="Cube face size of the captured probe (texels)",
+        default=128, min=0, soft_min=8, soft_max=1024, max=4096,
+    )
+    capture_engine: bpy.props.EnumProperty(
+        name="Engine", description="Render engine used to capture the probe",
+        items=[("CYCLES", "Cycles", "Path-traced capture"),
+               ("BLENDER_EEVEE", "EEVEE", "Rasterized capture (faster)")],
+    )
+    capture_samples: bpy.props.IntProperty(
+        name="Samples", description="Render samples per face", default=32, min=1, max=65536,
+    )
+    clip_start: bpy.props.FloatProperty(name="Clip Start", default=0.01, min=1e-6,
+                                        subtype="DISTANCE")
+    clip_end: bpy.props.FloatProperty(name="Clip End", default=1000.0, min=1e-3,
+                                      subtype="DISTANCE")
+    hide_self: bpy.props.BoolProperty(
+        name="Hide Self", description="Hide the object while its probe is captured", default=True,
+    )
+    centre_mode: bpy.props.EnumProperty(
+        name="Centre", description="Where the probe is captured",
+        items=[("VOLUME", "Volume Centroid", "Centroid of the evaluated mesh's volume"),
+               ("BBOX", "Bounding Box", "Centre of the world-space bounding box"),
+               ("ORIGIN", "Origin", "The object's origin")],
+    )
+    probe_source: bpy.props.EnumProperty(
+        name="Source", description="Render the scene, or only resample the world's image",
+        items=[("RENDER", "Render Scene", "Six 90-degree renders at the centre"),
+               ("WORLD", "World Only", "Resample the world's environment image")],
+    )
+    probe_path: bpy.props.StringProperty(name="Probe File", subtype="FILE_PATH")
+    probe_centre: bpy.props.FloatVectorProperty(name="Probe Centre", size=3, subtype="XYZ")
+
+    @classmethod
+    def register(cls):
+        bpy.types.Object.glossy = bpy.props.PointerProperty(type=cls)
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Object.glossy
+
+
+classes = (GlossySceneSettings, GlossyObjectSettings)
 register, unregister = bpy.utils.register_classes_factory(classes)

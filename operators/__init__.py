@@ -2,7 +2,7 @@
 
 import importlib
 
-_MODULE_NAMES = ("export_environment",)
+_MODULE_NAMES = ("export_environment", "capture_probes")
 
 
 def _classes():

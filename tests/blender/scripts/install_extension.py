@@ -15,15 +15,16 @@ from _installed import MODULE, install  # first: hides the venv's OpenEXR
 # isort: split
 import bpy
 
-OPERATORS = ("GLOSSY_OT_export_environment",)
-PANELS = ("GLOSSY_PT_environment",)
+OPERATORS = ("GLOSSY_OT_export_environment", "GLOSSY_OT_capture_probes")
+PANELS = ("GLOSSY_PT_environment", "GLOSSY_PT_probe")
 
 
 def registered():
     return {
         "operators": all(hasattr(bpy.types, name) for name in OPERATORS),
         "panels": all(hasattr(bpy.types, name) for name in PANELS),
-        "scene_settings": hasattr(bpy.types.Scene, "glossy"),
+        "scene_settings": all(hasattr(owner, "glossy")
+                              for owner in (bpy.types.Scene, bpy.types.Object)),
         "enabled": MODULE in bpy.context.preferences.addons,
     }
 

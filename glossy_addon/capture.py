@@ -1,0 +1,125 @@
+"""Six 90-degree renders from a point, assembled into a Glossy cube map.
+
+The cube layout is DESIGN.md's (bake/envmap/cube.py). A face seen from inside
+is a mirror image of a camera view, so each face is rendered by a camera
+whose x axis is the face's -s direction, then flipped left to right.
+"""
+
+import math
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+from ..bake import exr
+from ..bake.envmap.cube import _FACE_TABLE
+
+#: GL frame -> Blender: (x, y, z) = (g0, -g2, g1).
+_GL_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def face_rotation(face: int) -> Matrix:
+    """World rotation of the camera that renders cube face ``face`` (mirrored in x).
+
+    Face texel (a, b) looks along c0 + a c1 + b c2 (Blender frame); a camera
+    ray (x, y, -1) with x = -a, y = -b gives the same direction when the
+    camera's axes are (-c1, -c2, -c0).
+    """
+    columns = _GL_TO_BLENDER @ _FACE_TABLE[face]
+    rotation = np.stack([-columns[:, 1], -columns[:, 2], -columns[:, 0]], axis=1)
+    return Matrix(rotation.tolist())
+
+
+class CubeCapture:
+    """Renders the six faces at a point; restores every setting it touches.
+
+    Use as a context manager; ``render_face(face)`` returns (N, N, 3) float32
+    in cube-face orientation (row 0 at the top, s along columns).
+    """
+
+    def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
+                 clip_end=1000.0, hidden=()):
+        self.scene = scene
+        self.centre = Vector(centre)
+        self.size = int(size)
+        self.engine = engine
+        self.samples = int(samples)
+        self.clip = (float(clip_start), float(clip_end))
+        self.hidden = list(hidden)
+
+    def __enter__(self):
+        scene = self.scene
+        render = scene.render
+        settings = render.image_settings
+        self._saved = {
+            "camera": scene.camera, "engine": render.engine,
+            "resolution": (render.resolution_x, render.resolution_y,
+                           render.resolution_percentage, render.pixel_aspect_x,
+                           render.pixel_aspect_y),
+            "filepath": render.filepath, "film": render.film_transparent,
+            "format": (settings.file_format, settings.color_depth, settings.color_mode),
+            "hidden": [(obj.name, obj.hide_render) for obj in self.hidden],
+        }
+        if self.engine == "CYCLES":
+            self._saved["samples"] = scene.cycles.samples
+        else:
+            self._saved["samples"] = scene.eevee.taa_render_samples
+        data = bpy.data.cameras.new("Glossy probe camera")
+        data.type = "PERSP"
+        data.sensor_fit = "AUTO"
+        data.angle = math.pi / 2
+        data.clip_start, data.clip_end = self.clip
+        self.camera = bpy.data.objects.new("Glossy probe camera", data)
+        scene.collection.objects.link(self.camera)
+        scene.camera = self.camera
+        render.engine = self.engine
+        render.resolution_x = render.resolution_y = self.size
+        render.resolution_percentage = 100
+        render.pixel_aspect_x = render.pixel_aspect_y = 1.0
+        render.film_transparent = False
+        settings.file_format = "OPEN_EXR"
+        settings.color_depth = "32"
+        settings.color_mode = "RGB"
+        if self.engine == "CYCLES":
+            scene.cycles.samples = self.samples
+        else:
+            scene.eevee.taa_render_samples = self.samples
+        for obj in self.hidden:
+            obj.hide_render = True
+        self._folder = tempfile.TemporaryDirectory(prefix="glossy_capture_")
+        return self
+
+    def render_face(self, face: int) -> np.ndarray:
+        self.camera.matrix_world = Matrix.Translation(self.centre) @ face_rotation(face).to_4x4()
+        path = Path(self._folder.name) / f"face{face}.exr"
+        self.scene.render.filepath = str(path)
+        bpy.ops.render.render(write_still=True, scene=self.scene.name)
+        image, _ = exr.read(path, nonfinite="sanitize")
+        return np.ascontiguousarray(image[:, ::-1, :3])
+
+    def __exit__(self, *exc):
+        scene = self.scene
+        render = scene.render
+        saved = self._saved
+        scene.camera = saved["camera"]
+        render.engine = saved["engine"]
+        (render.resolution_x, render.resolution_y, render.resolution_percentage,
+         render.pixel_aspect_x, render.pixel_aspect_y) = saved["resolution"]
+        render.filepath = saved["filepath"]
+        render.film_transparent = saved["film"]
+        (render.image_settings.file_format, render.image_settings.color_depth,
+         render.image_settings.color_mode) = saved["format"]
+        if self.engine == "CYCLES":
+            scene.cycles.samples = saved["samples"]
+        else:
+            scene.eevee.taa_render_samples = saved["samples"]
+        for name, hidden in saved["hidden"]:
+            if name in bpy.data.objects:
+                bpy.data.objects[name].hide_render = hidden
+        data = self.camera.data
+        bpy.data.objects.remove(self.camera)
+        bpy.data.cameras.remove(data)
+        self._folder.cleanup()
+        return False

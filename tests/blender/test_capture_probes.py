@@ -1,0 +1,32 @@
+"""glossy.capture_probes: probe centre and captured faces, checked independently."""
+
+import numpy as np
+import pytest
+
+from tests.blender.conftest import run_script
+from tests.conftest import ROOT
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+
+
+def test_probe_at_volume_centroid_equals_camera_renders(tmp_path, hdri_dir):
+    result = run_script("capture_probe.py", ROOT, tmp_path, hdri_dir / "forest.exr",
+                        tmp_path / "r.json")
+    assert result["status"] == ["FINISHED"]
+    assert result["path"] == str(tmp_path / "glossy" / "Cone_probe.exr")
+    assert result["shape"] == [16, 96, 3] and result["meta"]["layout"] == "cube"
+    # The analytic centroid of the (polygonal) cone: a quarter of its height
+    # above the base, moved by the object's transform. float32 mesh data.
+    np.testing.assert_allclose(result["centre"], result["expected"], atol=1e-5)
+    assert result["meta"]["centre_mode"] == "VOLUME"
+    assert np.linalg.norm(np.subtract(result["centre"], result["bbox_centre"])) > 0.1
+    # Each face equals a render by an independent camera at that point, compared
+    # through that camera's own rays: the same pixel centres, rendered with one
+    # sample and a 0.01 px filter (the jitter changes values by ~1e-5).
+    assert result["face_median_relative_difference"] < 1e-3
+    assert result["face_p99_relative_difference"] < 1e-2
+    # Blender's state is restored: no temporary camera, the object visible again.
+    assert result["objects_after"] == ["Cone", "Cube", "Cube.001", "Cube.002", "Cube.003"]
+    assert result["cone_hidden_after"] is False and result["camera_after"] is True
+    assert "probe resolution must be between 8 and 4096, not 0" in result["resolution_zero"]
+    assert result["poll_without_mesh"] is False
