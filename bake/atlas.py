@@ -1,0 +1,102 @@
+"""Packing a 3D map into one texture for shader nodes, and the lookup nodes perform.
+
+Shader nodes have no 3D or layered textures, and EEVEE's Linear filtering is
+not exact for computed lookups (MEASURED.md), so a node group reads four
+Closest taps and blends them with bilinear weights it computes itself. This
+module fixes the layout those nodes read and is their NumPy twin:
+
+- each lat-long slice (H, W) is padded to (H + 2, W + 2): row 0 is the north
+  pole (the mean of the first row), row H + 1 the south pole, column 0 repeats
+  the last column and column W + 1 the first (the u seam);
+- the K padded slices are stacked top to bottom: atlas (K (H + 2), W + 2, 3),
+  row 0 at the top as in every EXR;
+- the per-slice mu nodes and offsets travel in the metadata.
+
+:func:`shade` evaluates exactly the arithmetic the node group does (tent
+weights over mu, lobe centre turned by the slice offset, padded bilinear
+lookups) and equals ``BakedMap.shade`` of the map it was packed from.
+"""
+
+import numpy as np
+
+from .errors import BakeError
+
+__all__ = ["pack", "shade", "texel_uv"]
+
+
+def pack(baked):
+    """(atlas (K (H + 2), W + 2, 3) float32, meta) from a single-lobe 3D BakedMap."""
+    if baked.mode != "3d" or baked.meta.get("lobes", 1) != 1:
+        raise BakeError("only single-lobe 3D maps pack into an atlas")
+    count = baked.meta["slices"]
+    slices = []
+    for k in range(count):
+        image = np.asarray(baked.layers[f"slice.{k}"], dtype=np.float32)[..., :3]
+        rows = np.concatenate([image[:1].mean(axis=1, keepdims=True).repeat(image.shape[1], 1),
+                               image,
+                               image[-1:].mean(axis=1, keepdims=True).repeat(image.shape[1], 1)])
+        slices.append(np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1))
+    atlas = np.concatenate(slices, axis=0)
+    height, width = baked.layers["slice.0"].shape[:2]
+    meta = {"mode": "atlas3d", "slices": count, "slice_height": height, "slice_width": width,
+            "mu": list(baked.meta["mu"]), "offsets": [o[0] for o in baked.meta["offsets"]],
+            "spec": baked.meta.get("spec")}
+    return atlas, meta
+
+
+def _tent(mu, nodes):
+    nodes = np.asarray(nodes, dtype=np.float64)
+    s = np.interp(mu, nodes, np.arange(nodes.size))
+    k0 = np.clip(np.floor(s), 0, nodes.size - 1).astype(int)
+    k1 = np.minimum(k0 + 1, nodes.size - 1)
+    return k0, k1, s - k0
+
+
+def texel_uv(row, col, atlas_shape):
+    """Blender image UV of atlas texel (row from the top, col): its centre."""
+    rows, cols = atlas_shape[:2]
+    return (col + 0.5) / cols, 1.0 - (row + 0.5) / rows
+
+
+def _lookup(atlas, meta, k, centre):
+    height, width = meta["slice_height"], meta["slice_width"]
+    u = np.mod(0.5 - np.arctan2(centre[..., 1], centre[..., 0]) / (2 * np.pi), 1.0)
+    y = np.arccos(np.clip(centre[..., 2], -1.0, 1.0)) / np.pi * height
+    px = u * width + 0.5
+    py = np.where(y < 0.5, 2.0 * y,
+                  np.where(y > height - 0.5, height + 1.0 - 2.0 * (height - y), y + 0.5))
+    px = np.clip(px, 0.0, width + 1.0)
+    py = np.clip(py, 0.0, height + 1.0)
+    x0 = np.minimum(np.floor(px).astype(int), width)
+    y0 = np.minimum(np.floor(py).astype(int), height)
+    fx = (px - x0)[..., None]
+    fy = (py - y0)[..., None]
+    base = k * (height + 2)
+    top = atlas[base + y0, x0] * (1 - fx) + atlas[base + y0, x0 + 1] * fx
+    bottom = atlas[base + y0 + 1, x0] * (1 - fx) + atlas[base + y0 + 1, x0 + 1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def shade(atlas, meta, normal, view):
+    """Reflected radiance (..., 3) from world-space normals and views (surface to viewer)."""
+    n = np.asarray(normal, dtype=np.float64)
+    v = np.asarray(view, dtype=np.float64)
+    n, v = np.broadcast_arrays(n, v)
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    mu = np.clip(np.sum(n * v, -1), 0.0, 1.0)
+    r = 2.0 * mu[..., None] * n - v
+    r /= np.linalg.norm(r, axis=-1, keepdims=True)
+    toward = mu[..., None] * r - n
+    length = np.linalg.norm(toward, axis=-1, keepdims=True)
+    fallback = np.cross(n, [0.3, 0.5, 0.8])
+    toward = np.where(length > 1e-9, toward / np.maximum(length, 1e-300),
+                      fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
+    k0, k1, t = _tent(mu, meta["mu"])
+    offsets = np.asarray(meta["offsets"], dtype=np.float64)
+    out = 0.0
+    for k, weight in ((k0, 1.0 - t), (k1, t)):
+        delta = offsets[k][..., None]
+        centre = np.cos(delta) * r + np.sin(delta) * toward
+        out = out + weight[..., None] * _lookup(atlas, meta, k, centre)
+    return out

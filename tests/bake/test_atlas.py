@@ -1,0 +1,30 @@
+"""The node-group atlas: packing and its NumPy lookup equal BakedMap.shade."""
+
+import numpy as np
+import pytest
+
+from bake import atlas, envmap, prefilter
+from bake.errors import BakeError
+
+
+def test_atlas_lookup_equals_the_baked_map(forest):
+    probe = envmap.convert(forest, "latlong", "cube", 24)
+    baked = prefilter.prefilter(probe, "ggx:roughness=0.4", "3d", 16, slices=5)
+    image, meta = atlas.pack(baked)
+    assert image.shape == (5 * 18, 34, 3)
+    # Padding: pole rows are ring means, edge columns wrap.
+    np.testing.assert_allclose(image[0, 5], baked.layers["slice.0"][0].mean(0), rtol=1e-6)
+    np.testing.assert_array_equal(image[1:17, 0], baked.layers["slice.0"][:, -1])
+    rng = np.random.default_rng(4)
+    n = rng.normal(size=(500, 3))
+    v = n + rng.normal(scale=0.8, size=(500, 3))
+    np.testing.assert_allclose(atlas.shade(image, meta, n, v), baked.shade(n, v), rtol=1e-5,
+                               atol=1e-6)
+
+
+def test_atlas_refuses_multi_lobe_maps(forest):
+    probe = envmap.convert(forest, "latlong", "cube", 16)
+    baked = prefilter.prefilter(probe, "sum(lambert; ggx:roughness=0.3)", "3d", 8, slices=3,
+                                lobes_count=2)
+    with pytest.raises(BakeError, match="single-lobe"):
+        atlas.pack(baked)
