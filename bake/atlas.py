@@ -8,9 +8,10 @@ module fixes the layout those nodes read and is their NumPy twin:
 - each lat-long slice (H, W) is padded to (H + 2, W + 2): row 0 is the north
   pole (the mean of the first row), row H + 1 the south pole, column 0 repeats
   the last column and column W + 1 the first (the u seam);
-- the K padded slices are stacked top to bottom: atlas (K (H + 2), W + 2, 3),
-  row 0 at the top as in every EXR;
-- the per-slice mu nodes and offsets travel in the metadata.
+- the K padded slices are stacked top to bottom, and one more column holds
+  each slice's offset (radians, R channel, on the slice's first row):
+  atlas (K (H + 2), W + 3, 3), row 0 at the top as in every EXR;
+- the per-slice mu nodes and offsets also travel in the metadata.
 
 :func:`shade` evaluates exactly the arithmetic the node group does (tent
 weights over mu, lobe centre turned by the slice offset, padded bilinear
@@ -25,7 +26,7 @@ __all__ = ["pack", "shade", "texel_uv"]
 
 
 def pack(baked):
-    """(atlas (K (H + 2), W + 2, 3) float32, meta) from a single-lobe 3D BakedMap."""
+    """(atlas (K (H + 2), W + 3, 3) float32, meta) from a single-lobe 3D BakedMap."""
     if baked.mode != "3d" or baked.meta.get("lobes", 1) != 1:
         raise BakeError("only single-lobe 3D maps pack into an atlas")
     count = baked.meta["slices"]
@@ -38,9 +39,13 @@ def pack(baked):
         slices.append(np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1))
     atlas = np.concatenate(slices, axis=0)
     height, width = baked.layers["slice.0"].shape[:2]
+    offsets = np.float32([o[0] for o in baked.meta["offsets"]])
+    column = np.zeros((atlas.shape[0], 1, 3), np.float32)
+    column[np.arange(count) * (height + 2), 0, 0] = offsets
+    atlas = np.concatenate([atlas, column], axis=1)
     meta = {"mode": "atlas3d", "slices": count, "slice_height": height, "slice_width": width,
-            "mu": list(baked.meta["mu"]), "offsets": [o[0] for o in baked.meta["offsets"]],
-            "spec": baked.meta.get("spec")}
+            "mu": [float(m) for m in baked.meta["mu"]],
+            "offsets": [float(o) for o in offsets], "spec": baked.meta.get("spec")}
     return atlas, meta
 
 
@@ -89,14 +94,14 @@ def shade(atlas, meta, normal, view):
     r /= np.linalg.norm(r, axis=-1, keepdims=True)
     toward = mu[..., None] * r - n
     length = np.linalg.norm(toward, axis=-1, keepdims=True)
-    fallback = np.cross(n, [0.3, 0.5, 0.8])
-    toward = np.where(length > 1e-9, toward / np.maximum(length, 1e-300),
-                      fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
+    # As Blender's Normalize node: a zero vector stays zero (only at mu = 1).
+    toward = np.where(length > 0, toward / np.where(length > 0, length, 1.0), 0.0)
     k0, k1, t = _tent(mu, meta["mu"])
     offsets = np.asarray(meta["offsets"], dtype=np.float64)
     out = 0.0
     for k, weight in ((k0, 1.0 - t), (k1, t)):
         delta = offsets[k][..., None]
         centre = np.cos(delta) * r + np.sin(delta) * toward
+        centre /= np.linalg.norm(centre, axis=-1, keepdims=True)
         out = out + weight[..., None] * _lookup(atlas, meta, k, centre)
     return out

@@ -240,9 +240,8 @@ class BakedMap:
         r /= np.linalg.norm(r, axis=-1, keepdims=True)
         toward = mu[..., None] * r - n  # in the (n, r) plane, away from n
         length = np.linalg.norm(toward, axis=-1, keepdims=True)
-        fallback = np.cross(n, [0.3, 0.5, 0.8])  # any tangent: offsets vanish at mu = 1
-        toward = np.where(length > 1e-9, toward / np.maximum(length, 1e-300),
-                          fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
+        # Zero at mu = 1 (as Blender's Normalize node), where offsets vanish anyway.
+        toward = np.where(length > 0, toward / np.where(length > 0, length, 1.0), 0.0)
         return n, mu, r, toward
 
     @staticmethod
@@ -282,7 +281,9 @@ class BakedMap:
             if not np.any(w > 0):
                 continue
             for j, offset in enumerate(self.meta["offsets"][k]):
-                centre = (np.cos(offset) * r + np.sin(offset) * toward)
+                centre = np.cos(offset) * r + np.sin(offset) * toward
+                # Unit already for front-facing views (toward is normal to r).
+                centre /= np.linalg.norm(centre, axis=-1, keepdims=True)
                 if self.mode == "3d":
                     name = f"slice.{k}" if self.meta["lobes"] == 1 else f"lobe{j}.slice.{k}"
                     value = self._sampler(name)(centre)

@@ -11,7 +11,8 @@ def test_atlas_lookup_equals_the_baked_map(forest):
     probe = envmap.convert(forest, "latlong", "cube", 24)
     baked = prefilter.prefilter(probe, "ggx:roughness=0.4", "3d", 16, slices=5)
     image, meta = atlas.pack(baked)
-    assert image.shape == (5 * 18, 34, 3)
+    assert image.shape == (5 * 18, 35, 3)
+    np.testing.assert_allclose(image[np.arange(5) * 18, 34, 0], meta["offsets"])
     # Padding: pole rows are ring means, edge columns wrap.
     np.testing.assert_allclose(image[0, 5], baked.layers["slice.0"][0].mean(0), rtol=1e-6)
     np.testing.assert_array_equal(image[1:17, 0], baked.layers["slice.0"][:, -1])
