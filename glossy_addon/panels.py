@@ -58,5 +58,44 @@ class GLOSSY_PT_probe(bpy.types.Panel):
             layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
 
 
-classes = (GLOSSY_PT_environment, GLOSSY_PT_probe)
+class GLOSSY_PT_material(bpy.types.Panel):
+    bl_label = "Glossy"
+    bl_idname = "GLOSSY_PT_material"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return context.material is not None
+
+    def draw(self, context):
+        from .bookkeeping import bake_status
+
+        settings = context.material.glossy
+        layout = self.layout
+        column = layout.column(align=True)
+        column.prop(settings, "model")
+        if settings.model == "CUSTOM":
+            column.prop(settings, "spec")
+        elif settings.model == "phong":
+            column.prop(settings, "exponent")
+            column.prop(settings, "color")
+        else:
+            if settings.model != "lambert":
+                column.prop(settings, "roughness")
+            column.prop(settings, "color")
+        column = layout.column(align=True)
+        column.prop(settings, "method")
+        column.prop(settings, "slices")
+        column.prop(settings, "map_size")
+        obj = context.object
+        probe = obj.glossy.probe_path if obj is not None else ""
+        layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
+        row = layout.row(align=True)
+        row.operator("glossy.bake_materials", icon="RENDER_RESULT")
+        row.operator("glossy.attach_materials", icon="NODETREE")
+
+
+classes = (GLOSSY_PT_environment, GLOSSY_PT_probe, GLOSSY_PT_material)
 register, unregister = bpy.utils.register_classes_factory(classes)

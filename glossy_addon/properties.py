@@ -91,5 +91,57 @@ class GlossyObjectSettings(bpy.types.PropertyGroup):
         del bpy.types.Object.glossy
 
 
-classes = (GlossySceneSettings, GlossyObjectSettings)
+MODEL_ITEMS = [
+    ("ggx", "GGX", "Cycles' GGX (Glossy BSDF, GGX distribution)"),
+    ("beckmann", "Beckmann", "Cycles' Beckmann"),
+    ("ashikhmin_shirley", "Ashikhmin-Shirley", "Cycles' Ashikhmin-Shirley"),
+    ("ward", "Ward", "Ward 1992 (alpha = roughness)"),
+    ("phong", "Phong", "Lewis' physically plausible Phong (exponent from roughness)"),
+    ("lambert", "Lambert", "Diffuse"),
+    ("CUSTOM", "Custom Spec", "Any bake.brdf spec string"),
+]
+
+
+class GlossyMaterialSettings(bpy.types.PropertyGroup):
+    """The BRDF and bake settings of one material (``Material.glossy``)."""
+
+    model: bpy.props.EnumProperty(name="BRDF", items=MODEL_ITEMS, default="ggx")
+    roughness: bpy.props.FloatProperty(name="Roughness", default=0.3, min=0.01, max=1.0)
+    exponent: bpy.props.FloatProperty(name="Exponent", default=50.0, min=0.0, max=1e5)
+    color: bpy.props.FloatVectorProperty(name="Color", subtype="COLOR", size=3, min=0.0,
+                                         max=1.0, default=(1.0, 1.0, 1.0))
+    spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
+                                   default="ggx:roughness=0.3")
+    method: bpy.props.EnumProperty(
+        name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)")],
+        default="3d")
+    slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
+    map_size: bpy.props.IntProperty(name="Map Size", description="Lat-long rows N (N x 2N)",
+                                    default=64, min=0, max=2048)
+    bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")
+    bake_hash: bpy.props.StringProperty(name="Bake Hash")
+    bake_time: bpy.props.FloatProperty(name="Bake Time")
+
+    def brdf_spec(self) -> str:
+        color = "/".join(f"{c:g}" for c in self.color)
+        if self.model == "CUSTOM":
+            return self.spec
+        if self.model == "ward":
+            return f"ward:alpha={self.roughness:g},ks={color}"
+        if self.model == "phong":
+            return f"phong:n={self.exponent:g},ks={color}"
+        if self.model == "lambert":
+            return f"lambert:color={color}"
+        return f"{self.model}:roughness={self.roughness:g},color={color}"
+
+    @classmethod
+    def register(cls):
+        bpy.types.Material.glossy = bpy.props.PointerProperty(type=cls)
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Material.glossy
+
+
+classes = (GlossySceneSettings, GlossyObjectSettings, GlossyMaterialSettings)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -15,8 +15,9 @@ from _installed import MODULE, install  # first: hides the venv's OpenEXR
 # isort: split
 import bpy
 
-OPERATORS = ("GLOSSY_OT_export_environment", "GLOSSY_OT_capture_probes")
-PANELS = ("GLOSSY_PT_environment", "GLOSSY_PT_probe")
+OPERATORS = ("GLOSSY_OT_export_environment", "GLOSSY_OT_capture_probes",
+             "GLOSSY_OT_bake_materials", "GLOSSY_OT_attach_materials")
+PANELS = ("GLOSSY_PT_environment", "GLOSSY_PT_probe", "GLOSSY_PT_material")
 
 
 def registered():
@@ -24,7 +25,8 @@ def registered():
         "operators": all(hasattr(bpy.types, name) for name in OPERATORS),
         "panels": all(hasattr(bpy.types, name) for name in PANELS),
         "scene_settings": all(hasattr(owner, "glossy")
-                              for owner in (bpy.types.Scene, bpy.types.Object)),
+                              for owner in (bpy.types.Scene, bpy.types.Object,
+                                            bpy.types.Material)),
         "enabled": MODULE in bpy.context.preferences.addons,
     }
 

@@ -1,0 +1,90 @@
+"""Bake bookkeeping and attach, as a pipeline script drives them.
+
+    python bake_attach.py REPO WORKDIR HDRI RESULT.json
+"""
+
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+repo, workdir, hdri, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
+packages = Path(tempfile.mkdtemp())
+os.symlink(repo, packages / "glossy")
+sys.path.insert(0, str(packages))
+
+import bpy  # noqa: E402
+import glossy  # noqa: E402
+from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glossy.register()
+scene = bpy.context.scene
+world = bpy.data.worlds.new("world")
+world.use_nodes = True
+scene.world = world
+env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+env.image = bpy.data.images.load(hdri)
+world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+bpy.ops.mesh.primitive_uv_sphere_add(location=(1.0, 2.0, 0.5))
+sphere = bpy.context.object
+report = {"poll_no_material": bpy.ops.glossy.bake_materials.poll()}
+material = bpy.data.materials.new("Shiny")
+sphere.data.materials.append(material)
+material.glossy.model = "ggx"
+material.glossy.roughness = 0.3
+material.glossy.slices = 3
+material.glossy.map_size = 8
+sphere.glossy.probe_source = "WORLD"
+sphere.glossy.probe_resolution = 16
+bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
+report["bake_without_probe"] = ""
+try:
+    bpy.ops.glossy.bake_materials()
+except RuntimeError as error:
+    report["bake_without_probe"] = str(error)
+report["capture"] = sorted(bpy.ops.glossy.capture_probes())
+
+
+def status():
+    return bake_status(material.glossy, sphere.glossy.probe_path)
+
+
+report["before"] = status()
+report["bake1"] = sorted(bpy.ops.glossy.bake_materials())
+path = Path(material.glossy.bake_path)
+first = path.stat().st_mtime_ns
+report["after_bake"] = status()
+bpy.ops.glossy.bake_materials()
+report["rebake_did_no_work"] = path.stat().st_mtime_ns == first
+
+bpy.ops.wm.save_mainfile()
+bpy.ops.wm.open_mainfile(filepath=str(workdir / "scene.blend"))
+sphere = bpy.data.objects["Sphere"]
+material = bpy.data.materials["Shiny"]
+bpy.context.view_layer.objects.active = sphere
+report["after_reload"] = status()
+bpy.ops.glossy.bake_materials()
+report["reload_rebake_did_no_work"] = path.stat().st_mtime_ns == first
+
+material.glossy.roughness = 0.5
+report["after_change"] = status()
+bpy.ops.glossy.bake_materials()
+report["after_rebake"] = status()
+path.unlink()
+report["after_delete"] = status()
+bpy.ops.glossy.bake_materials()
+report["restored"] = path.exists() and status() == "up to date"
+report["attach"] = sorted(bpy.ops.glossy.attach_materials())
+types = sorted({node.type for node in material.node_tree.nodes})
+report["node_types"] = types
+report["image_taps"] = sum(node.type == "TEX_IMAGE" for node in material.node_tree.nodes)
+material.glossy.map_size = 0
+try:
+    bpy.ops.glossy.bake_materials()
+    report["size_zero"] = "no error"
+except RuntimeError as error:
+    report["size_zero"] = str(error)
+with open(result_path, "w") as handle:
+    json.dump(report, handle, indent=1)
