@@ -28,9 +28,9 @@ sys.path.insert(0, str(packages))
 sys.path.insert(0, str(ROOT))
 
 import bpy  # noqa: E402
-
 import glossy  # noqa: E402
 from glossy.bake import exr  # noqa: E402
+
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 LUM = np.array([0.2126, 0.7152, 0.0722])
