@@ -13,6 +13,7 @@ $(STAMP): requirements.txt
 
 demo: $(STAMP)
 	$(PY) tools/demo.py
+	$(PY) tools/demo_blender.py
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
