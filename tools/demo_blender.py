@@ -23,9 +23,9 @@ sys.path.insert(0, str(packages))
 sys.path.insert(0, str(ROOT))
 
 import bpy  # noqa: E402
-
 import glossy  # noqa: E402
 from glossy.bake import exr, preview  # noqa: E402
+
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 OBJECTS = [  # (primitive, location, distribution, Glossy model, roughness)
@@ -96,7 +96,7 @@ def main():
     scene.collection.objects.link(camera)
     scene.camera = camera
     bpy.ops.wm.save_as_mainfile(filepath=str(out / "demo_scene.blend"))
-    for obj, material, _ in pairs:
+    for obj, _, _ in pairs:
         bpy.ops.object.select_all(action="DESELECT")
         obj.select_set(True)
         bpy.context.view_layer.objects.active = obj
