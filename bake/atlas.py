@@ -84,18 +84,9 @@ def _lookup(atlas, meta, k, centre):
 
 def shade(atlas, meta, normal, view):
     """Reflected radiance (..., 3) from world-space normals and views (surface to viewer)."""
-    n = np.asarray(normal, dtype=np.float64)
-    v = np.asarray(view, dtype=np.float64)
-    n, v = np.broadcast_arrays(n, v)
-    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    mu = np.clip(np.sum(n * v, -1), 0.0, 1.0)
-    r = 2.0 * mu[..., None] * n - v
-    r /= np.linalg.norm(r, axis=-1, keepdims=True)
-    toward = mu[..., None] * r - n
-    length = np.linalg.norm(toward, axis=-1, keepdims=True)
-    # As Blender's Normalize node: a zero vector stays zero (only at mu = 1).
-    toward = np.where(length > 0, toward / np.where(length > 0, length, 1.0), 0.0)
+    from .prefilter import view_frame
+
+    _, mu, r, toward = view_frame(normal, view)
     k0, k1, t = _tent(mu, meta["mu"])
     offsets = np.asarray(meta["offsets"], dtype=np.float64)
     out = 0.0

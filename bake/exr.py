@@ -234,10 +234,18 @@ def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
         header[META_ATTRIBUTE] = json.dumps(meta, sort_keys=True)
     if not path.parent.is_dir():
         raise BakeError(f"{path.parent}: output folder does not exist")
+    return _atomic_write(path, lambda target: OpenEXR.File(header, channels).write(target))
+
+
+def _atomic_write(path: Path, write) -> Path:
+    """Call write(temporary path) beside ``path``, then rename it over ``path``.
+
+    On any failure the temporary file is removed and ``path`` is untouched.
+    """
     temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.exr")
     try:
         with _quiet_native():
-            OpenEXR.File(header, channels).write(str(temporary))
+            write(str(temporary))
         os.replace(temporary, path)
     except (RuntimeError, OSError) as error:
         raise BakeError(f"{path}: cannot write ({error})") from error
@@ -273,17 +281,7 @@ def write_parts(path, parts: dict, meta: dict | None = None) -> Path:
         channels = {key: plane.astype(np.float32) for key, plane in
                     _channels_for("", array).items()}
         exr_parts.append(OpenEXR.Part(header, channels, name=str(name)))
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.exr")
-    try:
-        with _quiet_native():
-            OpenEXR.File(exr_parts).write(str(temporary))
-        os.replace(temporary, path)
-    except (RuntimeError, OSError) as error:
-        raise BakeError(f"{path}: cannot write ({error})") from error
-    finally:
-        if temporary.exists():
-            temporary.unlink()
-    return path
+    return _atomic_write(path, lambda target: OpenEXR.File(exr_parts).write(target))
 
 
 def read_parts(path, *, nonfinite: str = "error"):

@@ -163,6 +163,28 @@ def _probe_rows(image, layout):
     return image.shape[0]
 
 
+def view_frame(normal, view):
+    """(n, mu, r, toward) of world-space normals and views (..., 3), as the nodes compute.
+
+    n, v normalized; mu = clamp(n.v, 0, 1); r = 2 mu n - v normalized (the
+    mirror direction); toward = normalize(mu r - n), the direction in the
+    (n, r) plane away from n along which lobe offsets turn r (zero at mu = 1,
+    as Blender's Normalize node gives, where offsets vanish anyway).
+    """
+    n = np.asarray(normal, dtype=np.float64)
+    v = np.asarray(view, dtype=np.float64)
+    n, v = np.broadcast_arrays(n, v)
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    mu = np.clip(np.sum(n * v, -1), 0.0, 1.0)
+    r = 2.0 * mu[..., None] * n - v
+    r /= np.linalg.norm(r, axis=-1, keepdims=True)
+    toward = mu[..., None] * r - n
+    length = np.linalg.norm(toward, axis=-1, keepdims=True)
+    toward = np.where(length > 0, toward / np.where(length > 0, length, 1.0), 0.0)
+    return n, mu, r, toward
+
+
 def split_sum_kernel(roughness):
     """GGX prefilter kernel with n = v = r: D(h) max(cos gamma, 0) with h halfway
     (at gamma / 2), normalized to unit integral over the sphere (1/sr)."""
@@ -230,19 +252,7 @@ class BakedMap:
 
     @staticmethod
     def _frame(normal, view):
-        n = np.asarray(normal, dtype=np.float64)
-        v = np.asarray(view, dtype=np.float64)
-        n, v = np.broadcast_arrays(n, v)
-        n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-        v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-        mu = np.clip(np.sum(n * v, -1), 0.0, 1.0)
-        r = 2.0 * mu[..., None] * n - v
-        r /= np.linalg.norm(r, axis=-1, keepdims=True)
-        toward = mu[..., None] * r - n  # in the (n, r) plane, away from n
-        length = np.linalg.norm(toward, axis=-1, keepdims=True)
-        # Zero at mu = 1 (as Blender's Normalize node), where offsets vanish anyway.
-        toward = np.where(length > 0, toward / np.where(length > 0, length, 1.0), 0.0)
-        return n, mu, r, toward
+        return view_frame(normal, view)
 
     @staticmethod
     def _tent(mu, nodes):

@@ -30,12 +30,8 @@ def _materials(obj):
     return out
 
 
-class GLOSSY_OT_bake_materials(bpy.types.Operator):
-    """Prefilter the object's probe for each of its materials' BRDFs (skips up-to-date bakes)"""
-
-    bl_idname = "glossy.bake_materials"
-    bl_label = "Bake Materials"
-    bl_options = {"REGISTER", "UNDO"}
+class _MaterialsOperator:
+    """poll() shared by the operators that work on the active object's materials."""
 
     @classmethod
     def poll(cls, context):
@@ -44,6 +40,14 @@ class GLOSSY_OT_bake_materials(bpy.types.Operator):
             cls.poll_message_set(message)
             return False
         return True
+
+
+class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
+    """Prefilter the object's probe for each of its materials' BRDFs (skips up-to-date bakes)"""
+
+    bl_idname = "glossy.bake_materials"
+    bl_label = "Bake Materials"
+    bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
         obj, _ = _object_with_probe(context)
@@ -85,20 +89,12 @@ class GLOSSY_OT_bake_materials(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class GLOSSY_OT_attach_materials(bpy.types.Operator):
+class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
     """Rebuild each baked material's nodes as the Glossy 3D-map lookup (EEVEE and Cycles)"""
 
     bl_idname = "glossy.attach_materials"
     bl_label = "Attach Lookups"
     bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        obj, message = _object_with_probe(context)
-        if obj is None:
-            cls.poll_message_set(message)
-            return False
-        return True
 
     def execute(self, context):
         obj, _ = _object_with_probe(context)

@@ -4,16 +4,11 @@
 """
 
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 repo, workdir, hdri, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
-packages = Path(tempfile.mkdtemp())
-os.symlink(repo, packages / "glossy")
-sys.path.insert(0, str(packages))
-
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402

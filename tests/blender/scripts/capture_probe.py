@@ -11,18 +11,13 @@ pixel by pixel through directions computed from that camera alone.
 
 import json
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 repo, workdir, hdri, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
-packages = Path(tempfile.mkdtemp())
-os.symlink(repo, packages / "glossy")
-sys.path.insert(0, str(packages))
-
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.bake import envmap, exr  # noqa: E402

@@ -10,18 +10,13 @@ engine itself shaded with.
 """
 
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 repo, workdir, hdri, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
-packages = Path(tempfile.mkdtemp())
-os.symlink(repo, packages / "glossy")
-sys.path.insert(0, str(packages))
-
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from glossy.bake import atlas, envmap, exr, prefilter  # noqa: E402
 from glossy.glossy_addon.nodes import build_lookup, load_atlas  # noqa: E402
