@@ -163,4 +163,5 @@ def load_atlas(path, meta_name=None):
     """Load (or reuse) the atlas EXR as a Non-Color float image."""
     image = bpy.data.images.load(str(path), check_existing=True)
     image.colorspace_settings.name = "Non-Color"
+    image.reload()  # a re-bake rewrote the file (or restored a missing one)
     return image

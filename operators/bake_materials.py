@@ -49,44 +49,99 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
     bl_label = "Bake Materials"
     bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    def _prepare(self, context):
+        """(object, probe, probe meta, folder, materials to bake) or raise BakeError."""
         obj, _ = _object_with_probe(context)
         probe_path = obj.glossy.probe_path
+        if not probe_path:
+            raise BakeError(f"{obj.name} has no probe yet: capture one first")
+        probe, meta = exr.read(bpy.path.abspath(probe_path))
+        folder = output_folder()
+        todo = []
+        for material in _materials(obj):
+            settings = material.glossy
+            if not 4 <= settings.map_size <= 2048:
+                raise BakeError(f"{material.name}: map size must be in [4, 2048], "
+                                f"not {settings.map_size}")
+            if not 2 <= settings.slices <= 256:
+                raise BakeError(f"{material.name}: slices must be in [2, 256], "
+                                f"not {settings.slices}")
+            if bake_status(settings, probe_path) != "up to date":
+                path = folder / f"{bpy.path.clean_name(obj.name)}_" \
+                                f"{bpy.path.clean_name(material.name)}_3d.exr"
+                check_may_write(path)
+                todo.append((material.name, path))
+        return obj, probe, meta, probe_path, todo
+
+    @staticmethod
+    def _bake_one(material, path, probe, meta, probe_path):
+        settings = material.glossy
+        baked = prefilter.prefilter(probe, settings.brdf_spec(), "3d", settings.map_size,
+                                    slices=settings.slices, layout=meta.get("layout", "cube"))
+        image, atlas_meta = atlas.pack(baked)
+        atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
+                           "material": material.name})
+        exr.write(path, image, atlas_meta)  # atomic: never a half-written file
+        settings.bake_path = str(path)
+        settings.bake_hash = bake_inputs_hash(settings, probe_path)
+        settings.bake_time = time.time()
+
+    def execute(self, context):
         try:
-            if not probe_path:
-                raise BakeError(f"{obj.name} has no probe yet: capture one first")
-            probe, meta = exr.read(bpy.path.abspath(probe_path))
-            folder = output_folder()
-            baked_count = 0
+            _, probe, meta, probe_path, todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                materials = _materials(obj)
-                for index, material in enumerate(materials):
-                    settings = material.glossy
-                    if not 4 <= settings.map_size <= 2048:
-                        raise BakeError(f"{material.name}: map size must be in [4, 2048], "
-                                        f"not {settings.map_size}")
-                    if bake_status(settings, probe_path) == "up to date":
-                        continue
-                    path = folder / f"{bpy.path.clean_name(obj.name)}_" \
-                                    f"{bpy.path.clean_name(material.name)}_3d.exr"
-                    check_may_write(path)
-                    baked = prefilter.prefilter(probe, settings.brdf_spec(), "3d",
-                                                settings.map_size, slices=settings.slices,
-                                                layout=meta.get("layout", "cube"))
-                    image, atlas_meta = atlas.pack(baked)
-                    atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                                       "material": material.name})
-                    exr.write(path, image, atlas_meta)
-                    settings.bake_path = str(path)
-                    settings.bake_hash = bake_inputs_hash(settings, probe_path)
-                    settings.bake_time = time.time()
-                    baked_count += 1
-                    progress((index + 1) / len(materials), f"baked {material.name}")
+                for index, (name, path) in enumerate(todo):
+                    progress(index / max(len(todo), 1), f"baking {name}")
+                    self._bake_one(bpy.data.materials[name], path, probe, meta, probe_path)
+                progress(1.0, f"baked {len(todo)} material(s)")
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Glossy baked {baked_count} material(s)")
+        self.report({"INFO"}, f"Glossy baked {len(todo)} material(s)")
         return {"FINISHED"}
+
+    # UI: one material per timer tick; Esc stops between materials (each file
+    # is written atomically, so nothing half-written remains).
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            _, self._probe, self._meta, self._probe_path, self._todo = self._prepare(context)
+        except (BakeError, ValueError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self._done = 0
+        self._progress = BlenderProgress(context, "bake materials").__enter__()
+        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _stop(self, context):
+        context.window_manager.event_timer_remove(self._timer)
+        self._progress.__exit__(None, None, None)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._stop(context)
+            self.report({"WARNING"}, f"Bake cancelled after {self._done} material(s)")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        if self._done >= len(self._todo):
+            self._stop(context)
+            self.report({"INFO"}, f"Glossy baked {self._done} material(s)")
+            return {"FINISHED"}
+        name, path = self._todo[self._done]
+        try:
+            self._bake_one(bpy.data.materials[name], path, self._probe, self._meta,
+                           self._probe_path)
+        except (BakeError, ValueError, KeyError) as error:
+            self._stop(context)
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self._done += 1
+        self._progress(self._done / len(self._todo), f"baked {name}")
+        return {"RUNNING_MODAL"}
 
 
 class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):

@@ -22,3 +22,8 @@ def test_bake_is_skipped_when_unchanged_and_redone_when_stale_or_missing(tmp_pat
     assert {"EMISSION", "TEX_IMAGE", "NEW_GEOMETRY"} <= set(r["node_types"])
     assert r["image_taps"] == 10  # 2 slices x (4 taps + 1 offset)
     assert "map size must be in [4, 2048], not 0" in r["size_zero"]
+    assert r["reload_missing_status"] == "missing"
+    assert r["image_has_data_missing"] is False
+    assert r["rebake"] == ["FINISHED"] and r["reattach"] == ["FINISHED"]
+    assert r["image_size_after"] == [8 * 2 + 3, 3 * (8 + 2)]  # (W + 3) x K (H + 2), K = 3
+    assert "save the .blend first" in r["unsaved"] and r["unsaved_probe_path"] == ""

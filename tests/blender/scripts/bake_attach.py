@@ -81,5 +81,39 @@ try:
     report["size_zero"] = "no error"
 except RuntimeError as error:
     report["size_zero"] = str(error)
+material.glossy.map_size = 8
+
+# A baked texture missing on reload: status says so, a re-bake and attach restore it.
+bpy.ops.wm.save_mainfile()
+Path(material.glossy.bake_path).unlink()
+bpy.ops.wm.open_mainfile(filepath=str(workdir / "scene.blend"))
+sphere = bpy.data.objects["Sphere"]
+material = bpy.data.materials["Shiny"]
+bpy.context.view_layer.objects.active = sphere
+report["reload_missing_status"] = status()
+image = next(n.image for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+report["image_has_data_missing"] = bool(image.has_data and image.size[0] > 0)
+report["rebake"] = sorted(bpy.ops.glossy.bake_materials())
+report["reattach"] = sorted(bpy.ops.glossy.attach_materials())
+image = next(n.image for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+report["image_size_after"] = list(image.size)
+
+# An unsaved file and no extension user folder (this checkout is not an
+# installed extension): the capture reports it and writes nothing.
+bpy.ops.wm.read_homefile(use_empty=True)
+world = bpy.data.worlds.new("world")
+world.use_nodes = True
+bpy.context.scene.world = world
+env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+env.image = bpy.data.images.load(hdri)
+bpy.ops.mesh.primitive_uv_sphere_add()
+bpy.context.object.glossy.probe_source = "WORLD"
+bpy.context.object.glossy.probe_resolution = 16
+try:
+    bpy.ops.glossy.capture_probes()
+    report["unsaved"] = "no error"
+except RuntimeError as error:
+    report["unsaved"] = str(error)
+report["unsaved_probe_path"] = bpy.context.object.glossy.probe_path
 with open(result_path, "w") as handle:
     json.dump(report, handle, indent=1)
