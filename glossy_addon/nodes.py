@@ -79,20 +79,142 @@ class _Builder:
         self.link(b, node.inputs[7])
         return node.outputs[2]
 
-    def tap(self, image, u, v):
-        node = self._place(self.nodes.new("ShaderNodeTexImage"))
-        node.image = image
-        node.interpolation = "Closest"
-        node.extension = "EXTEND"
-        self.link(self.combine(u, v), node.inputs["Vector"])
-        return node.outputs["Color"]
+
+
+SLICE_GROUP = f"Glossy Slice Blend v{GROUP_VERSION}"
+TAPS_GROUP = f"Glossy Atlas Taps v{GROUP_VERSION}"
+
+
+def _group(name, inputs, outputs):
+    """An empty shader node group with the given float/vector sockets, or None if it exists."""
+    if name in bpy.data.node_groups:
+        return None
+    tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    for socket_name, kind in inputs:
+        tree.interface.new_socket(socket_name, in_out="INPUT", socket_type=kind)
+    for socket_name, kind in outputs:
+        tree.interface.new_socket(socket_name, in_out="OUTPUT", socket_type=kind)
+    tree.nodes.new("NodeGroupInput")
+    tree.nodes.new("NodeGroupOutput")
+    return tree
+
+
+def _io(tree):
+    group_in = next(n for n in tree.nodes if n.type == "GROUP_INPUT")
+    group_out = next(n for n in tree.nodes if n.type == "GROUP_OUTPUT")
+    return group_in.outputs, group_out.inputs
+
+
+def _frame(b, normal, view):
+    normal = b.vec("NORMALIZE", normal)
+    view = b.vec("NORMALIZE", view)
+    mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", normal, view), 0.0), 1.0)
+    r = b.vec("NORMALIZE", b.vec("SUBTRACT", b.vec("SCALE", normal, scale=b.math(
+        "MULTIPLY", mu, 2.0)), view))
+    toward = b.vec("NORMALIZE", b.vec("SUBTRACT", b.vec("SCALE", r, scale=mu), normal))
+    return mu, r, toward
+
+
+def slice_blend_group():
+    """Shared group: mu = n.v -> the two slices K0, K1 around it, weight T, and the
+    atlas UVs of their offsets (slices at mu = k / (K - 1), the first at Mu0)."""
+    float_, vector = "NodeSocketFloat", "NodeSocketVector"
+    tree = _group(SLICE_GROUP, [("Normal", vector), ("Incoming", vector), ("Slices", float_),
+                                ("Mu0", float_), ("Slice Height", float_),
+                                ("Slice Width", float_)],
+                  [("K0", float_), ("K1", float_), ("T", float_), ("Offset UV0", vector),
+                   ("Offset UV1", vector)])
+    if tree is None:
+        return bpy.data.node_groups[SLICE_GROUP]
+    b = _Builder(tree)
+    inputs, outputs = _io(tree)
+    count, mu0 = inputs["Slices"], inputs["Mu0"]
+    mu, _, _ = _frame(b, inputs["Normal"], inputs["Incoming"])
+    last = b.math("SUBTRACT", count, 1.0)
+    first = b.math("DIVIDE", 1.0, last)
+    linear = b.math("MULTIPLY", mu, last)
+    ramp = b.math("MINIMUM", b.math("MAXIMUM", b.math(
+        "DIVIDE", b.math("SUBTRACT", mu, mu0), b.math("SUBTRACT", first, mu0)), 0.0), 1.0)
+    s = b.select(b.math("GREATER_THAN", mu, b.math("SUBTRACT", first, 1e-7)), linear, ramp)
+    k0 = b.math("MINIMUM", b.math("FLOOR", s), last)
+    k1 = b.math("MINIMUM", b.math("ADD", k0, 1.0), last)
+    rows = b.math("MULTIPLY", count, b.math("ADD", inputs["Slice Height"], 2.0))
+    cols = b.math("ADD", inputs["Slice Width"], 3.0)
+    u = b.math("DIVIDE", b.math("SUBTRACT", cols, 0.5), cols)
+    for k, name in ((k0, "Offset UV0"), (k1, "Offset UV1")):
+        base = b.math("MULTIPLY", k, b.math("ADD", inputs["Slice Height"], 2.0))
+        v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", base, 0.5), rows))
+        b.link(b.combine(u, v), outputs[name])
+    b.link(k0, outputs["K0"])
+    b.link(k1, outputs["K1"])
+    b.link(b.math("SUBTRACT", s, k0), outputs["T"])
+    return tree
+
+
+def atlas_taps_group():
+    """Shared group: for slice K with offset Offset, the UVs of the four Closest taps
+    around the lobe centre in the padded atlas and the bilinear weights FX, FY."""
+    float_, vector = "NodeSocketFloat", "NodeSocketVector"
+    tree = _group(TAPS_GROUP, [("Normal", vector), ("Incoming", vector), ("K", float_),
+                               ("Offset", float_), ("Slices", float_), ("Slice Height", float_),
+                               ("Slice Width", float_)],
+                  [("UV00", vector), ("UV01", vector), ("UV10", vector), ("UV11", vector),
+                   ("FX", float_), ("FY", float_)])
+    if tree is None:
+        return bpy.data.node_groups[TAPS_GROUP]
+    b = _Builder(tree)
+    inputs, outputs = _io(tree)
+    height, width = inputs["Slice Height"], inputs["Slice Width"]
+    _, r, toward = _frame(b, inputs["Normal"], inputs["Incoming"])
+    offset = inputs["Offset"]
+    centre = b.vec("NORMALIZE", b.vec("ADD", b.vec("SCALE", r, scale=b.math("COSINE", offset)),
+                                      b.vec("SCALE", toward, scale=b.math("SINE", offset))))
+    cx, cy, cz = b.separate(centre)
+    u = b.math("SUBTRACT", 0.5, b.math("DIVIDE", b.math("ARCTAN2", cy, cx), 2 * math.pi))
+    y = b.math("MULTIPLY", b.math("DIVIDE", b.math("ARCCOSINE", b.math(
+        "MINIMUM", b.math("MAXIMUM", cz, -1.0), 1.0)), math.pi), height)
+    px = b.math("MINIMUM", b.math("MAXIMUM", b.math("MULTIPLY_ADD", u, width, 0.5), 0.0),
+                b.math("ADD", width, 1.0))
+    low = b.math("MULTIPLY", y, 2.0)
+    high = b.math("SUBTRACT", b.math("MULTIPLY", y, 2.0), b.math("SUBTRACT", height, 1.0))
+    middle = b.math("ADD", y, 0.5)
+    py = b.select(b.math("LESS_THAN", y, 0.5), low,
+                  b.select(b.math("GREATER_THAN", y, b.math("SUBTRACT", height, 0.5)), high,
+                           middle))
+    py = b.math("MINIMUM", b.math("MAXIMUM", py, 0.0), b.math("ADD", height, 1.0))
+    x0 = b.math("MINIMUM", b.math("FLOOR", px), width)
+    y0 = b.math("MINIMUM", b.math("FLOOR", py), height)
+    b.link(b.math("SUBTRACT", px, x0), outputs["FX"])
+    b.link(b.math("SUBTRACT", py, y0), outputs["FY"])
+    rows = b.math("MULTIPLY", inputs["Slices"], b.math("ADD", height, 2.0))
+    cols = b.math("ADD", width, 3.0)
+    base = b.math("MULTIPLY", inputs["K"], b.math("ADD", height, 2.0))
+    for dy in (0, 1):
+        row = b.math("ADD", base, b.math("ADD", y0, dy))
+        v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", row, 0.5), rows))
+        for dx in (0, 1):
+            u_tap = b.math("DIVIDE", b.math("ADD", x0, dx + 0.5), cols)
+            b.link(b.combine(u_tap, v), outputs[f"UV{dy}{dx}"])
+    return tree
+
+
+def _group_node(b, tree, values):
+    node = b._place(b.nodes.new("ShaderNodeGroup"))
+    node.node_tree = tree
+    for name, value in values.items():
+        b.link(value, node.inputs[name])
+    return node.outputs
 
 
 def build_lookup(material, image, meta):
-    """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout)."""
+    """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
+
+    The arithmetic lives in two shared, versioned node groups (``Glossy Slice
+    Blend v1``, ``Glossy Atlas Taps v1``); the material holds the image taps,
+    which shader node groups cannot take as inputs.
+    """
     count = int(meta["slices"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
-    rows, cols = count * (height + 2), width + 3
     mus = [float(m) for m in meta["mu"]]
     if count < 2 or any(abs(mus[k] - k / (count - 1)) > 1e-9 for k in range(1, count)):
         raise ValueError("the atlas's slices must sit at mu = k / (K - 1)")
@@ -101,55 +223,29 @@ def build_lookup(material, image, meta):
     tree.nodes.clear()
     b = _Builder(tree)
     geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
-    normal = b.vec("NORMALIZE", geometry.outputs["Normal"])
-    view = b.vec("NORMALIZE", geometry.outputs["Incoming"])
-    mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", normal, view), 0.0), 1.0)
-    r = b.vec("NORMALIZE", b.vec("SUBTRACT", b.vec("SCALE", normal, scale=b.math(
-        "MULTIPLY", mu, 2.0)), view))
-    toward = b.vec("NORMALIZE", b.vec("SUBTRACT", b.vec("SCALE", r, scale=mu), normal))
-    # s: position of mu among the slice nodes (the first node sits at mus[0]).
-    first = 1.0 / (count - 1)
-    linear = b.math("MULTIPLY", mu, count - 1)
-    ramp = b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", b.math("SUBTRACT", mu, mus[0]),
-                                                           first - mus[0]), 0.0), 1.0)
-    s = b.select(b.math("GREATER_THAN", mu, first - 1e-7), linear, ramp)
-    k0 = b.math("MINIMUM", b.math("FLOOR", s), count - 1)
-    k1 = b.math("MINIMUM", b.math("ADD", k0, 1.0), count - 1)
-    t = b.math("SUBTRACT", s, k0)
+    normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
+    sizes = {"Slices": float(count), "Slice Height": float(height), "Slice Width": float(width)}
+    blend = _group_node(b, slice_blend_group(), {"Normal": normal, "Incoming": view,
+                                                 "Mu0": mus[0], **sizes})
 
-    def slice_value(k):
-        base = b.math("MULTIPLY", k, height + 2)  # atlas row of the slice's top
-        offset_v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", base, 0.5), rows))
-        offset = b.separate(b.tap(image, (cols - 0.5) / cols, offset_v))[0]
-        centre = b.vec("NORMALIZE", b.vec("ADD", b.vec("SCALE", r, scale=b.math("COSINE", offset)),
-                                          b.vec("SCALE", toward, scale=b.math("SINE", offset))))
-        cx, cy, cz = b.separate(centre)
-        u = b.math("SUBTRACT", 0.5, b.math("DIVIDE", b.math("ARCTAN2", cy, cx), 2 * math.pi))
-        y = b.math("MULTIPLY", b.math("ARCCOSINE", b.math("MINIMUM", b.math("MAXIMUM", cz, -1.0),
-                                                          1.0)), height / math.pi)
-        px = b.math("MINIMUM", b.math("MAXIMUM", b.math("MULTIPLY_ADD", u, width, 0.5), 0.0),
-                    width + 1.0)
-        low = b.math("MULTIPLY", y, 2.0)
-        high = b.math("SUBTRACT", b.math("MULTIPLY", y, 2.0), height - 1.0)
-        middle = b.math("ADD", y, 0.5)
-        py = b.select(b.math("LESS_THAN", y, 0.5), low,
-                      b.select(b.math("GREATER_THAN", y, height - 0.5), high, middle))
-        py = b.math("MINIMUM", b.math("MAXIMUM", py, 0.0), height + 1.0)
-        x0 = b.math("MINIMUM", b.math("FLOOR", px), float(width))
-        y0 = b.math("MINIMUM", b.math("FLOOR", py), float(height))
-        fx, fy = b.math("SUBTRACT", px, x0), b.math("SUBTRACT", py, y0)
-        taps = []
-        for dy in (0, 1):
-            row = b.math("ADD", base, b.math("ADD", y0, dy))
-            v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", row, 0.5), rows))
-            for dx in (0, 1):
-                u_tap = b.math("DIVIDE", b.math("ADD", x0, dx + 0.5), cols)
-                taps.append(b.tap(image, u_tap, v))
-        top = b.mix(fx, taps[0], taps[1])
-        bottom = b.mix(fx, taps[2], taps[3])
-        return b.mix(fy, top, bottom)
+    def tap(uv):
+        node = b._place(b.nodes.new("ShaderNodeTexImage"))
+        node.image = image
+        node.interpolation = "Closest"
+        node.extension = "EXTEND"
+        b.link(uv, node.inputs["Vector"])
+        return node.outputs["Color"]
 
-    value = b.mix(t, slice_value(k0), slice_value(k1))
+    values = []
+    for k_name, offset_name in (("K0", "Offset UV0"), ("K1", "Offset UV1")):
+        offset = b.separate(tap(blend[offset_name]))[0]
+        taps = _group_node(b, atlas_taps_group(), {"Normal": normal, "Incoming": view,
+                                                   "K": blend[k_name], "Offset": offset,
+                                                   **sizes})
+        top = b.mix(taps["FX"], tap(taps["UV00"]), tap(taps["UV01"]))
+        bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
+        values.append(b.mix(taps["FY"], top, bottom))
+    value = b.mix(blend["T"], values[0], values[1])
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

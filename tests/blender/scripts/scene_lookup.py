@@ -76,6 +76,7 @@ for obj in (sphere, torus):
     bpy.ops.glossy.bake_materials()
     bpy.ops.glossy.attach_materials()
     atlases[obj.name] = exr.read(obj.data.materials[0].glossy.bake_path)
+report["node_groups"] = {group.name: group.users for group in bpy.data.node_groups}
 
 
 def emission_material(name, color=None, encode_normal=False):
