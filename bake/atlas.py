@@ -49,6 +49,27 @@ def pack(baked):
     return atlas, meta
 
 
+def pack_irradiance(baked):
+    """(atlas (H + 2, W + 3, 3), meta) of an irradiance BakedMap, times its colour.
+
+    The same padded layout as one slice of a 3D map; its lookup centre is the
+    normal itself (a Lambertian lobe peaks at the normal: an offset of -theta_o).
+    """
+    if baked.mode != "irradiance":
+        raise BakeError("pack_irradiance needs an irradiance map")
+    image = np.asarray(baked.layers["irradiance"], dtype=np.float32)[..., :3]
+    image = image * np.asarray(baked.meta["color"], dtype=np.float32)
+    rows = np.concatenate([image[:1].mean(axis=1, keepdims=True).repeat(image.shape[1], 1),
+                           image,
+                           image[-1:].mean(axis=1, keepdims=True).repeat(image.shape[1], 1)])
+    padded = np.concatenate([rows[:, -1:], rows, rows[:, :1],
+                             np.zeros((rows.shape[0], 1, 3), np.float32)], axis=1)
+    meta = {"mode": "atlas_irradiance", "slices": 1, "slice_height": image.shape[0],
+            "slice_width": image.shape[1], "mu": [1.0], "offsets": [0.0],
+            "color": list(baked.meta["color"])}
+    return padded, meta
+
+
 def _tent(mu, nodes):
     nodes = np.asarray(nodes, dtype=np.float64)
     s = np.interp(mu, nodes, np.arange(nodes.size))
@@ -86,7 +107,10 @@ def shade(atlas, meta, normal, view):
     """Reflected radiance (..., 3) from world-space normals and views (surface to viewer)."""
     from .prefilter import view_frame
 
-    _, mu, r, toward = view_frame(normal, view)
+    n, mu, r, toward = view_frame(normal, view)
+    if meta.get("mode") == "atlas_irradiance":
+        # The nodes turn r towards n by theta_o, which lands on n.
+        return _lookup(atlas, meta, 0, n)
     k0, k1, t = _tent(mu, meta["mu"])
     offsets = np.asarray(meta["offsets"], dtype=np.float64)
     out = 0.0

@@ -15,6 +15,7 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
         probe_key = [str(probe), None, None]
     key = {"spec": material_settings.brdf_spec(), "method": material_settings.method,
            "slices": material_settings.slices, "size": material_settings.map_size,
+           "diffuse": [round(c, 6) for c in material_settings.diffuse],
            "probe": probe_key}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -22,6 +23,9 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
 def bake_status(material_settings, probe_path) -> str:
     """``missing`` (no file), ``stale`` (inputs changed) or ``up to date``."""
     if not material_settings.bake_path or not Path(material_settings.bake_path).exists():
+        return "missing"
+    if any(material_settings.diffuse) and not (
+            material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):
         return "missing"
     if material_settings.bake_hash != bake_inputs_hash(material_settings, probe_path):
         return "stale"

@@ -206,12 +206,14 @@ def _group_node(b, tree, values):
     return node.outputs
 
 
-def build_lookup(material, image, meta):
+def build_lookup(material, image, meta, diffuse=None):
     """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
 
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
     Blend v1``, ``Glossy Atlas Taps v1``); the material holds the image taps,
-    which shader node groups cannot take as inputs.
+    which shader node groups cannot take as inputs. ``diffuse``: an optional
+    (image, meta) irradiance atlas (bake.atlas.pack_irradiance) added on top,
+    looked up at the normal.
     """
     count = int(meta["slices"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
@@ -228,9 +230,9 @@ def build_lookup(material, image, meta):
     blend = _group_node(b, slice_blend_group(), {"Normal": normal, "Incoming": view,
                                                  "Mu0": mus[0], **sizes})
 
-    def tap(uv):
+    def tap(uv, source=image):
         node = b._place(b.nodes.new("ShaderNodeTexImage"))
-        node.image = image
+        node.image = source
         node.interpolation = "Closest"
         node.extension = "EXTEND"
         b.link(uv, node.inputs["Vector"])
@@ -246,6 +248,26 @@ def build_lookup(material, image, meta):
         bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
         values.append(b.mix(taps["FY"], top, bottom))
     value = b.mix(blend["T"], values[0], values[1])
+    if diffuse is not None:
+        diffuse_image, diffuse_meta = diffuse
+        # Offset -acos(mu) turns r onto the normal: the irradiance lookup.
+        mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", b.vec("NORMALIZE", normal),
+                                                       b.vec("NORMALIZE", view)), 0.0), 1.0)
+        offset = b.math("MULTIPLY", b.math("ARCCOSINE", mu), -1.0)
+        taps = _group_node(b, atlas_taps_group(), {
+            "Normal": normal, "Incoming": view, "K": 0.0, "Offset": offset, "Slices": 1.0,
+            "Slice Height": float(diffuse_meta["slice_height"]),
+            "Slice Width": float(diffuse_meta["slice_width"])})
+        top = b.mix(taps["FX"], tap(taps["UV00"], diffuse_image), tap(taps["UV01"], diffuse_image))
+        bottom = b.mix(taps["FX"], tap(taps["UV10"], diffuse_image),
+                       tap(taps["UV11"], diffuse_image))
+        add = b._place(b.nodes.new("ShaderNodeMix"))
+        add.data_type = "RGBA"
+        add.blend_type = "ADD"
+        add.inputs["Factor"].default_value = 1.0
+        b.link(value, add.inputs[6])
+        b.link(b.mix(taps["FY"], top, bottom), add.inputs[7])
+        value = add.outputs[2]
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

@@ -85,6 +85,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
             if settings.model != "lambert":
                 column.prop(settings, "roughness")
             column.prop(settings, "color")
+        layout.prop(settings, "diffuse")
         column = layout.column(align=True)
         column.prop(settings, "method")
         column.prop(settings, "slices")

@@ -110,6 +110,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     exponent: bpy.props.FloatProperty(name="Exponent", default=50.0, min=0.0, max=1e5)
     color: bpy.props.FloatVectorProperty(name="Color", subtype="COLOR", size=3, min=0.0,
                                          max=1.0, default=(1.0, 1.0, 1.0))
+    diffuse: bpy.props.FloatVectorProperty(
+        name="Diffuse", description="Lambertian part, baked as an irradiance map (black: none)",
+        subtype="COLOR", size=3, min=0.0, max=1.0, default=(0.0, 0.0, 0.0))
     spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(
@@ -119,6 +122,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     map_size: bpy.props.IntProperty(name="Map Size", description="Lat-long rows N (N x 2N)",
                                     default=64, min=0, max=2048)
     bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")
+    diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_time: bpy.props.FloatProperty(name="Bake Time")
 

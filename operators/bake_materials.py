@@ -83,6 +83,19 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
                            "material": material.name})
         exr.write(path, image, atlas_meta)  # atomic: never a half-written file
         settings.bake_path = str(path)
+        if any(settings.diffuse):
+            color = "/".join(f"{c:g}" for c in settings.diffuse)
+            irradiance = prefilter.prefilter(probe, f"lambert:color={color}", "irradiance",
+                                             settings.map_size, layout=meta.get("layout", "cube"))
+            image, diffuse_meta = atlas.pack_irradiance(irradiance)
+            diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
+                                 "material": material.name})
+            diffuse_path = path.with_name(path.stem.replace("_3d", "") + "_diffuse.exr")
+            check_may_write(diffuse_path)
+            exr.write(diffuse_path, image, diffuse_meta)
+            settings.diffuse_path = str(diffuse_path)
+        else:
+            settings.diffuse_path = ""
         settings.bake_hash = bake_inputs_hash(settings, probe_path)
         settings.bake_time = time.time()
 
@@ -160,7 +173,11 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if not path:
                     continue
                 image_data, meta = exr.read(path)
-                build_lookup(material, load_atlas(path), meta)
+                diffuse = None
+                if material.glossy.diffuse_path:
+                    _, diffuse_meta = exr.read(material.glossy.diffuse_path)
+                    diffuse = (load_atlas(material.glossy.diffuse_path), diffuse_meta)
+                build_lookup(material, load_atlas(path), meta, diffuse)
                 attached += 1
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))

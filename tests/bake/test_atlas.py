@@ -29,3 +29,15 @@ def test_atlas_refuses_multi_lobe_maps(forest):
                                 lobes_count=2)
     with pytest.raises(BakeError, match="single-lobe"):
         atlas.pack(baked)
+
+
+def test_irradiance_atlas_equals_the_irradiance_map(forest):
+    probe = envmap.convert(forest, "latlong", "cube", 16)
+    baked = prefilter.prefilter(probe, "lambert:color=0.5/0.4/0.3", "irradiance", 16)
+    image, meta = atlas.pack_irradiance(baked)
+    assert image.shape == (18, 35, 3) and meta["mode"] == "atlas_irradiance"
+    rng = np.random.default_rng(6)
+    n = rng.normal(size=(300, 3))
+    v = n + rng.normal(scale=0.7, size=(300, 3))
+    np.testing.assert_allclose(atlas.shade(image, meta, n, v), baked.shade(n, v), rtol=1e-5,
+                               atol=1e-6)

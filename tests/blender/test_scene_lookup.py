@@ -15,8 +15,10 @@ def test_eevee_renders_what_the_numpy_lookup_predicts(tmp_path, hdri_dir):
         # A UV sphere and a torus are symmetric about their origins: the volume
         # centroid is the origin (float32 mesh data).
         np.testing.assert_allclose(centre, origin, atol=1e-5, err_msg=name)
-    # One copy of each versioned group, used by both materials (2 nodes each).
-    assert r["node_groups"] == {"Glossy Slice Blend v1": 2, "Glossy Atlas Taps v1": 4}
+    # One copy of each versioned group, shared by both materials (the taps group
+    # twice per material, once more for the sphere's diffuse part).
+    assert r["node_groups"] == {"Glossy Slice Blend v1": 2, "Glossy Atlas Taps v1": 5}
+    assert r["Sphere_maps"] == 2 and r["Torus_maps"] == 1  # the sphere has a diffuse part
     for name in ("Sphere", "Torus"):
         result = r[name]
         assert result["pixels"] > 500, name

@@ -52,6 +52,7 @@ for obj, model, roughness in ((sphere, "ggx", 0.3), (torus, "ward", 0.15)):
     obj.data.materials.append(material)
     obj.glossy.probe_resolution = 32
     obj.glossy.capture_samples = 8
+sphere.data.materials[0].glossy.diffuse = (0.3, 0.2, 0.1)  # a diffuse part on the sphere
 
 camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
 camera.data.type = "ORTHO"
@@ -75,7 +76,10 @@ for obj in (sphere, torus):
     bpy.context.view_layer.objects.active = obj
     bpy.ops.glossy.bake_materials()
     bpy.ops.glossy.attach_materials()
-    atlases[obj.name] = exr.read(obj.data.materials[0].glossy.bake_path)
+    settings = obj.data.materials[0].glossy
+    atlases[obj.name] = [exr.read(settings.bake_path)]
+    if settings.diffuse_path:
+        atlases[obj.name].append(exr.read(settings.diffuse_path))
 report["node_groups"] = {group.name: group.users for group in bpy.data.node_groups}
 
 
@@ -125,10 +129,11 @@ for obj, color in ((sphere, (1.0, 0.0, 0.0)), (torus, (0.0, 1.0, 0.0))):
 ids = render("ids")
 view = np.array(camera.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0)))
 for index, obj in enumerate((sphere, torus)):
-    image, meta = atlases[obj.name]
     mask = (ids[..., index] > 0.99) & (ids[..., 1 - index] < 0.01)
     mask &= np.abs(np.linalg.norm(normals, axis=-1) - 1.0) < 0.01
-    predicted = atlas.shade(image, meta, normals[mask], view)
+    predicted = sum(atlas.shade(image, meta, normals[mask], view)
+                    for image, meta in atlases[obj.name])
+    report[f"{obj.name}_maps"] = len(atlases[obj.name])
     relative = np.abs(radiance[mask] - predicted) / np.maximum(np.abs(predicted), 1e-3)
     report[obj.name] = {"pixels": int(mask.sum()), "median": float(np.median(relative)),
                         "p95": float(np.percentile(relative, 95)),
