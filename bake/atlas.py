@@ -25,10 +25,22 @@ from .errors import BakeError
 __all__ = ["pack", "shade", "texel_uv"]
 
 
+def _pad(image):
+    """(H + 2, W + 2, 3): pole rows (ring means) above and below, wrapped columns."""
+    rows = np.concatenate([image[:1].mean(axis=1, keepdims=True).repeat(image.shape[1], 1),
+                           image,
+                           image[-1:].mean(axis=1, keepdims=True).repeat(image.shape[1], 1)])
+    return np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1)
+
+
 def pack(baked):
-    """(atlas (K (H + 2), W + 3, 3) float32, meta) from a single-lobe 3D BakedMap."""
+    """(atlas, meta) from a single-lobe 3D BakedMap, (K (H + 2), W + 3, 3) float32,
+    or from a 2D BakedMap: the padded map (H + 2, W + 4, 3) whose column W + 2
+    holds slice k's offset (R) and column W + 3 its weight k(theta_o) (RGB) on row k."""
+    if baked.mode == "2d":
+        return _pack_2d(baked)
     if baked.mode != "3d" or baked.meta.get("lobes", 1) != 1:
-        raise BakeError("only single-lobe 3D maps pack into an atlas")
+        raise BakeError("only single-lobe 3D maps and 2D maps pack into an atlas")
     count = baked.meta["slices"]
     slices = []
     for k in range(count):
@@ -47,6 +59,23 @@ def pack(baked):
             "mu": [float(m) for m in baked.meta["mu"]],
             "offsets": [float(o) for o in offsets], "spec": baked.meta.get("spec")}
     return atlas, meta
+
+
+def _pack_2d(baked):
+    image = np.asarray(baked.layers[""], dtype=np.float32)[..., :3]
+    height, width = image.shape[:2]
+    count = baked.meta["slices"]
+    if count > height + 2:
+        raise BakeError(f"a 2D atlas holds at most {height + 2} slices for a {height}-row map")
+    offsets = np.float32([o[0] for o in baked.meta["offsets"]])
+    weights = np.float32(baked.meta["k"])
+    columns = np.zeros((height + 2, 2, 3), np.float32)
+    columns[:count, 0, 0] = offsets
+    columns[:count, 1] = weights
+    meta = {"mode": "atlas2d", "slices": count, "slice_height": height, "slice_width": width,
+            "mu": [float(m) for m in baked.meta["mu"]], "offsets": [float(o) for o in offsets],
+            "k": weights.tolist(), "spec": baked.meta.get("spec")}
+    return np.concatenate([_pad(image), columns], axis=1), meta
 
 
 def pack_irradiance(baked):
@@ -113,10 +142,15 @@ def shade(atlas, meta, normal, view):
         return _lookup(atlas, meta, 0, n)
     k0, k1, t = _tent(mu, meta["mu"])
     offsets = np.asarray(meta["offsets"], dtype=np.float64)
+    two_d = meta.get("mode") == "atlas2d"
     out = 0.0
     for k, weight in ((k0, 1.0 - t), (k1, t)):
         delta = offsets[k][..., None]
         centre = np.cos(delta) * r + np.sin(delta) * toward
         centre /= np.linalg.norm(centre, axis=-1, keepdims=True)
-        out = out + weight[..., None] * _lookup(atlas, meta, k, centre)
+        if two_d:  # one map, scaled by the slice's weight k(theta_o)
+            value = _lookup(atlas, meta, 0, centre) * np.asarray(meta["k"])[k]
+        else:
+            value = _lookup(atlas, meta, k, centre)
+        out = out + weight[..., None] * value
     return out

@@ -117,13 +117,14 @@ def _frame(b, normal, view):
 
 def slice_blend_group():
     """Shared group: mu = n.v -> the two slices K0, K1 around it, weight T, and the
-    atlas UVs of their offsets (slices at mu = k / (K - 1), the first at Mu0)."""
+    atlas UVs of their offsets (column Offset Column, row k Stride) and of their
+    2D weights (the next column); slices at mu = k / (K - 1), the first at Mu0."""
     float_, vector = "NodeSocketFloat", "NodeSocketVector"
     tree = _group(SLICE_GROUP, [("Normal", vector), ("Incoming", vector), ("Slices", float_),
-                                ("Mu0", float_), ("Slice Height", float_),
-                                ("Slice Width", float_)],
+                                ("Mu0", float_), ("Stride", float_), ("Atlas Rows", float_),
+                                ("Atlas Cols", float_), ("Offset Column", float_)],
                   [("K0", float_), ("K1", float_), ("T", float_), ("Offset UV0", vector),
-                   ("Offset UV1", vector)])
+                   ("Offset UV1", vector), ("Weight UV0", vector), ("Weight UV1", vector)])
     if tree is None:
         return bpy.data.node_groups[SLICE_GROUP]
     b = _Builder(tree)
@@ -138,13 +139,14 @@ def slice_blend_group():
     s = b.select(b.math("GREATER_THAN", mu, b.math("SUBTRACT", first, 1e-7)), linear, ramp)
     k0 = b.math("MINIMUM", b.math("FLOOR", s), last)
     k1 = b.math("MINIMUM", b.math("ADD", k0, 1.0), last)
-    rows = b.math("MULTIPLY", count, b.math("ADD", inputs["Slice Height"], 2.0))
-    cols = b.math("ADD", inputs["Slice Width"], 3.0)
-    u = b.math("DIVIDE", b.math("SUBTRACT", cols, 0.5), cols)
-    for k, name in ((k0, "Offset UV0"), (k1, "Offset UV1")):
-        base = b.math("MULTIPLY", k, b.math("ADD", inputs["Slice Height"], 2.0))
+    rows, cols = inputs["Atlas Rows"], inputs["Atlas Cols"]
+    u_offset = b.math("DIVIDE", b.math("ADD", inputs["Offset Column"], 0.5), cols)
+    u_weight = b.math("DIVIDE", b.math("ADD", inputs["Offset Column"], 1.5), cols)
+    for k, suffix in ((k0, "0"), (k1, "1")):
+        base = b.math("MULTIPLY", k, inputs["Stride"])
         v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", base, 0.5), rows))
-        b.link(b.combine(u, v), outputs[name])
+        b.link(b.combine(u_offset, v), outputs["Offset UV" + suffix])
+        b.link(b.combine(u_weight, v), outputs["Weight UV" + suffix])
     b.link(k0, outputs["K0"])
     b.link(k1, outputs["K1"])
     b.link(b.math("SUBTRACT", s, k0), outputs["T"])
@@ -157,7 +159,7 @@ def atlas_taps_group():
     float_, vector = "NodeSocketFloat", "NodeSocketVector"
     tree = _group(TAPS_GROUP, [("Normal", vector), ("Incoming", vector), ("K", float_),
                                ("Offset", float_), ("Slices", float_), ("Slice Height", float_),
-                               ("Slice Width", float_)],
+                               ("Slice Width", float_), ("Atlas Cols", float_)],
                   [("UV00", vector), ("UV01", vector), ("UV10", vector), ("UV11", vector),
                    ("FX", float_), ("FY", float_)])
     if tree is None:
@@ -187,7 +189,7 @@ def atlas_taps_group():
     b.link(b.math("SUBTRACT", px, x0), outputs["FX"])
     b.link(b.math("SUBTRACT", py, y0), outputs["FY"])
     rows = b.math("MULTIPLY", inputs["Slices"], b.math("ADD", height, 2.0))
-    cols = b.math("ADD", width, 3.0)
+    cols = inputs["Atlas Cols"]
     base = b.math("MULTIPLY", inputs["K"], b.math("ADD", height, 2.0))
     for dy in (0, 1):
         row = b.math("ADD", base, b.math("ADD", y0, dy))
@@ -217,6 +219,7 @@ def build_lookup(material, image, meta, diffuse=None):
     """
     count = int(meta["slices"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
+    two_d = meta.get("mode") == "atlas2d"
     mus = [float(m) for m in meta["mu"]]
     if count < 2 or any(abs(mus[k] - k / (count - 1)) > 1e-9 for k in range(1, count)):
         raise ValueError("the atlas's slices must sit at mu = k / (K - 1)")
@@ -226,9 +229,14 @@ def build_lookup(material, image, meta, diffuse=None):
     b = _Builder(tree)
     geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
     normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
-    sizes = {"Slices": float(count), "Slice Height": float(height), "Slice Width": float(width)}
-    blend = _group_node(b, slice_blend_group(), {"Normal": normal, "Incoming": view,
-                                                 "Mu0": mus[0], **sizes})
+    atlas_cols = float(width + (4 if two_d else 3))
+    blend = _group_node(b, slice_blend_group(), {
+        "Normal": normal, "Incoming": view, "Slices": float(count), "Mu0": mus[0],
+        "Stride": 1.0 if two_d else float(height + 2),
+        "Atlas Rows": float(height + 2 if two_d else count * (height + 2)),
+        "Atlas Cols": atlas_cols, "Offset Column": float(width + 2)})
+    sizes = {"Slices": 1.0 if two_d else float(count), "Slice Height": float(height),
+             "Slice Width": float(width), "Atlas Cols": atlas_cols}
 
     def tap(uv, source=image):
         node = b._place(b.nodes.new("ShaderNodeTexImage"))
@@ -238,15 +246,27 @@ def build_lookup(material, image, meta, diffuse=None):
         b.link(uv, node.inputs["Vector"])
         return node.outputs["Color"]
 
+    def multiply(a, c):
+        node = b._place(b.nodes.new("ShaderNodeMix"))
+        node.data_type = "RGBA"
+        node.blend_type = "MULTIPLY"
+        node.inputs["Factor"].default_value = 1.0
+        b.link(a, node.inputs[6])
+        b.link(c, node.inputs[7])
+        return node.outputs[2]
+
     values = []
-    for k_name, offset_name in (("K0", "Offset UV0"), ("K1", "Offset UV1")):
-        offset = b.separate(tap(blend[offset_name]))[0]
-        taps = _group_node(b, atlas_taps_group(), {"Normal": normal, "Incoming": view,
-                                                   "K": blend[k_name], "Offset": offset,
-                                                   **sizes})
+    for suffix in ("0", "1"):
+        offset = b.separate(tap(blend["Offset UV" + suffix]))[0]
+        taps = _group_node(b, atlas_taps_group(), {
+            "Normal": normal, "Incoming": view, "K": 0.0 if two_d else blend["K" + suffix],
+            "Offset": offset, **sizes})
         top = b.mix(taps["FX"], tap(taps["UV00"]), tap(taps["UV01"]))
         bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
-        values.append(b.mix(taps["FY"], top, bottom))
+        value = b.mix(taps["FY"], top, bottom)
+        if two_d:  # one map, scaled by the slice's weight k(theta_o)
+            value = multiply(value, tap(blend["Weight UV" + suffix]))
+        values.append(value)
     value = b.mix(blend["T"], values[0], values[1])
     if diffuse is not None:
         diffuse_image, diffuse_meta = diffuse
@@ -257,7 +277,8 @@ def build_lookup(material, image, meta, diffuse=None):
         taps = _group_node(b, atlas_taps_group(), {
             "Normal": normal, "Incoming": view, "K": 0.0, "Offset": offset, "Slices": 1.0,
             "Slice Height": float(diffuse_meta["slice_height"]),
-            "Slice Width": float(diffuse_meta["slice_width"])})
+            "Slice Width": float(diffuse_meta["slice_width"]),
+            "Atlas Cols": float(diffuse_meta["slice_width"] + 3)})
         top = b.mix(taps["FX"], tap(taps["UV00"], diffuse_image), tap(taps["UV01"], diffuse_image))
         bottom = b.mix(taps["FX"], tap(taps["UV10"], diffuse_image),
                        tap(taps["UV11"], diffuse_image))

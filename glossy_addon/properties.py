@@ -116,7 +116,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(
-        name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)")],
+        name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
+                              ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)")],
         default="3d")
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
     map_size: bpy.props.IntProperty(name="Map Size", description="Lat-long rows N (N x 2N)",

@@ -68,7 +68,7 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
                                 f"not {settings.slices}")
             if bake_status(settings, probe_path) != "up to date":
                 path = folder / f"{bpy.path.clean_name(obj.name)}_" \
-                                f"{bpy.path.clean_name(material.name)}_3d.exr"
+                                f"{bpy.path.clean_name(material.name)}_{settings.method}.exr"
                 check_may_write(path)
                 todo.append((material.name, path))
         return obj, probe, meta, probe_path, todo
@@ -76,8 +76,9 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
     @staticmethod
     def _bake_one(material, path, probe, meta, probe_path):
         settings = material.glossy
-        baked = prefilter.prefilter(probe, settings.brdf_spec(), "3d", settings.map_size,
-                                    slices=settings.slices, layout=meta.get("layout", "cube"))
+        baked = prefilter.prefilter(probe, settings.brdf_spec(), settings.method,
+                                    settings.map_size, slices=settings.slices,
+                                    layout=meta.get("layout", "cube"))
         image, atlas_meta = atlas.pack(baked)
         atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
                            "material": material.name})
@@ -90,7 +91,7 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
             image, diffuse_meta = atlas.pack_irradiance(irradiance)
             diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
                                  "material": material.name})
-            diffuse_path = path.with_name(path.stem.replace("_3d", "") + "_diffuse.exr")
+            diffuse_path = path.with_name(path.stem.rsplit("_", 1)[0] + "_diffuse.exr")
             check_may_write(diffuse_path)
             exr.write(diffuse_path, image, diffuse_meta)
             settings.diffuse_path = str(diffuse_path)

@@ -27,7 +27,7 @@ def test_atlas_refuses_multi_lobe_maps(forest):
     probe = envmap.convert(forest, "latlong", "cube", 16)
     baked = prefilter.prefilter(probe, "sum(lambert; ggx:roughness=0.3)", "3d", 8, slices=3,
                                 lobes_count=2)
-    with pytest.raises(BakeError, match="single-lobe"):
+    with pytest.raises(BakeError, match="single-lobe 3D maps and 2D maps"):
         atlas.pack(baked)
 
 
@@ -37,6 +37,20 @@ def test_irradiance_atlas_equals_the_irradiance_map(forest):
     image, meta = atlas.pack_irradiance(baked)
     assert image.shape == (18, 35, 3) and meta["mode"] == "atlas_irradiance"
     rng = np.random.default_rng(6)
+    n = rng.normal(size=(300, 3))
+    v = n + rng.normal(scale=0.7, size=(300, 3))
+    np.testing.assert_allclose(atlas.shade(image, meta, n, v), baked.shade(n, v), rtol=1e-5,
+                               atol=1e-6)
+
+
+def test_2d_atlas_equals_the_2d_map(forest):
+    probe = envmap.convert(forest, "latlong", "cube", 16)
+    baked = prefilter.prefilter(probe, "ward:alpha=0.15", "2d", 16, slices=6)
+    image, meta = atlas.pack(baked)
+    assert image.shape == (18, 36, 3) and meta["mode"] == "atlas2d"
+    np.testing.assert_allclose(image[:6, 34, 0], meta["offsets"])
+    np.testing.assert_allclose(image[:6, 35], meta["k"])
+    rng = np.random.default_rng(7)
     n = rng.normal(size=(300, 3))
     v = n + rng.normal(scale=0.7, size=(300, 3))
     np.testing.assert_allclose(atlas.shade(image, meta, n, v), baked.shade(n, v), rtol=1e-5,

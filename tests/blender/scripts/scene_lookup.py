@@ -53,6 +53,7 @@ for obj, model, roughness in ((sphere, "ggx", 0.3), (torus, "ward", 0.15)):
     obj.glossy.probe_resolution = 32
     obj.glossy.capture_samples = 8
 sphere.data.materials[0].glossy.diffuse = (0.3, 0.2, 0.1)  # a diffuse part on the sphere
+torus.data.materials[0].glossy.method = "2d"  # the torus uses the 2D lobe + k(theta_o)
 
 camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
 camera.data.type = "ORTHO"
