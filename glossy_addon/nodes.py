@@ -208,14 +208,15 @@ def _group_node(b, tree, values):
     return node.outputs
 
 
-def build_lookup(material, image, meta, diffuse=None):
+def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
     """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
 
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
     Blend v1``, ``Glossy Atlas Taps v1``); the material holds the image taps,
     which shader node groups cannot take as inputs. ``diffuse``: an optional
     (image, meta) irradiance atlas (bake.atlas.pack_irradiance) added on top,
-    looked up at the normal.
+    looked up at the normal. ``fresnel_ior`` > 1 blends them as Heidrich 3.1.1,
+    F glossy + (1 - F) diffuse, with Blender's Fresnel node (exact dielectric).
     """
     count = int(meta["slices"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
@@ -282,13 +283,19 @@ def build_lookup(material, image, meta, diffuse=None):
         top = b.mix(taps["FX"], tap(taps["UV00"], diffuse_image), tap(taps["UV01"], diffuse_image))
         bottom = b.mix(taps["FX"], tap(taps["UV10"], diffuse_image),
                        tap(taps["UV11"], diffuse_image))
-        add = b._place(b.nodes.new("ShaderNodeMix"))
-        add.data_type = "RGBA"
-        add.blend_type = "ADD"
-        add.inputs["Factor"].default_value = 1.0
-        b.link(value, add.inputs[6])
-        b.link(b.mix(taps["FY"], top, bottom), add.inputs[7])
-        value = add.outputs[2]
+        diffuse_value = b.mix(taps["FY"], top, bottom)
+        if fresnel_ior > 1.0:
+            fresnel = b._place(b.nodes.new("ShaderNodeFresnel"))
+            fresnel.inputs["IOR"].default_value = fresnel_ior
+            value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
+        else:
+            add = b._place(b.nodes.new("ShaderNodeMix"))
+            add.data_type = "RGBA"
+            add.blend_type = "ADD"
+            add.inputs["Factor"].default_value = 1.0
+            b.link(value, add.inputs[6])
+            b.link(diffuse_value, add.inputs[7])
+            value = add.outputs[2]
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

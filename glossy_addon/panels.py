@@ -86,6 +86,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
                 column.prop(settings, "roughness")
             column.prop(settings, "color")
         layout.prop(settings, "diffuse")
+        layout.prop(settings, "fresnel_ior")
         column = layout.column(align=True)
         column.prop(settings, "method")
         column.prop(settings, "slices")

@@ -113,6 +113,11 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     diffuse: bpy.props.FloatVectorProperty(
         name="Diffuse", description="Lambertian part, baked as an irradiance map (black: none)",
         subtype="COLOR", size=3, min=0.0, max=1.0, default=(0.0, 0.0, 0.0))
+    fresnel_ior: bpy.props.FloatProperty(
+        name="Fresnel IOR",
+        description="Blend glossy and diffuse by the exact dielectric Fresnel term of this "
+                    "index (Heidrich 3.1.1: F glossy + (1 - F) diffuse); 0: plain sum",
+        default=0.0, min=0.0, max=10.0)
     spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(

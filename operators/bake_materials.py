@@ -178,7 +178,8 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if material.glossy.diffuse_path:
                     _, diffuse_meta = exr.read(material.glossy.diffuse_path)
                     diffuse = (load_atlas(material.glossy.diffuse_path), diffuse_meta)
-                build_lookup(material, load_atlas(path), meta, diffuse)
+                build_lookup(material, load_atlas(path), meta, diffuse,
+                             material.glossy.fresnel_ior)
                 attached += 1
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))

@@ -20,6 +20,7 @@ import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np
 from glossy.bake import atlas, exr  # noqa: E402
+from glossy.bake.brdf import fresnel  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 workdir, hdri, result_path = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
@@ -52,7 +53,8 @@ for obj, model, roughness in ((sphere, "ggx", 0.3), (torus, "ward", 0.15)):
     obj.data.materials.append(material)
     obj.glossy.probe_resolution = 32
     obj.glossy.capture_samples = 8
-sphere.data.materials[0].glossy.diffuse = (0.3, 0.2, 0.1)  # a diffuse part on the sphere
+sphere.data.materials[0].glossy.diffuse = (0.3, 0.2, 0.1)  # a diffuse part on the sphere,
+sphere.data.materials[0].glossy.fresnel_ior = 1.5  # blended by Fresnel (Heidrich 3.1.1)
 torus.data.materials[0].glossy.method = "2d"  # the torus uses the 2D lobe + k(theta_o)
 
 camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
@@ -132,8 +134,13 @@ view = np.array(camera.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0)))
 for index, obj in enumerate((sphere, torus)):
     mask = (ids[..., index] > 0.99) & (ids[..., 1 - index] < 0.01)
     mask &= np.abs(np.linalg.norm(normals, axis=-1) - 1.0) < 0.01
-    predicted = sum(atlas.shade(image, meta, normals[mask], view)
-                    for image, meta in atlases[obj.name])
+    looked_up = [atlas.shade(image, meta, normals[mask], view) for image, meta in atlases[obj.name]]
+    if len(looked_up) == 2:  # Fresnel blend, Heidrich 3.1.1, exact dielectric F(n.v)
+        unit = normals[mask] / np.linalg.norm(normals[mask], axis=-1, keepdims=True)
+        f = fresnel.dielectric(unit @ view, 1.5)[:, None]
+        predicted = fresnel.blend(f, looked_up[0], looked_up[1])
+    else:
+        predicted = looked_up[0]
     report[f"{obj.name}_maps"] = len(atlases[obj.name])
     relative = np.abs(radiance[mask] - predicted) / np.maximum(np.abs(predicted), 1e-3)
     report[obj.name] = {"pixels": int(mask.sum()), "median": float(np.median(relative)),
