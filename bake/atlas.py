@@ -34,29 +34,29 @@ def _pad(image):
 
 
 def pack(baked):
-    """(atlas, meta) from a single-lobe 3D BakedMap, (K (H + 2), W + 3, 3) float32,
+    """(atlas, meta) from a 3D BakedMap with L lobe sequences, (L K (H + 2), W + 3, 3)
+    float32 (slice j K + k is lobe j's slice k),
     or from a 2D BakedMap: the padded map (H + 2, W + 4, 3) whose column W + 2
     holds slice k's offset (R) and column W + 3 its weight k(theta_o) (RGB) on row k."""
     if baked.mode == "2d":
         return _pack_2d(baked)
-    if baked.mode != "3d" or baked.meta.get("lobes", 1) != 1:
-        raise BakeError("only single-lobe 3D maps and 2D maps pack into an atlas")
+    if baked.mode != "3d":
+        raise BakeError("only 3D maps and 2D maps pack into an atlas")
     count = baked.meta["slices"]
-    slices = []
-    for k in range(count):
-        image = np.asarray(baked.layers[f"slice.{k}"], dtype=np.float32)[..., :3]
-        rows = np.concatenate([image[:1].mean(axis=1, keepdims=True).repeat(image.shape[1], 1),
-                               image,
-                               image[-1:].mean(axis=1, keepdims=True).repeat(image.shape[1], 1)])
-        slices.append(np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1))
+    lobes = baked.meta.get("lobes", 1)
+    names = [f"slice.{k}" if lobes == 1 else f"lobe{j}.slice.{k}"
+             for j in range(lobes) for k in range(count)]
+    slices = [_pad(np.asarray(baked.layers[name], dtype=np.float32)[..., :3]) for name in names]
     atlas = np.concatenate(slices, axis=0)
-    height, width = baked.layers["slice.0"].shape[:2]
-    offsets = np.float32([o[0] for o in baked.meta["offsets"]])
+    height, width = baked.layers[names[0]].shape[:2]
+    # Slice j K + k is lobe j's slice k; its offset sits on its first row.
+    offsets = np.float32([baked.meta["offsets"][k][j] for j in range(lobes)
+                          for k in range(count)])
     column = np.zeros((atlas.shape[0], 1, 3), np.float32)
-    column[np.arange(count) * (height + 2), 0, 0] = offsets
+    column[np.arange(len(names)) * (height + 2), 0, 0] = offsets
     atlas = np.concatenate([atlas, column], axis=1)
-    meta = {"mode": "atlas3d", "slices": count, "slice_height": height, "slice_width": width,
-            "mu": [float(m) for m in baked.meta["mu"]],
+    meta = {"mode": "atlas3d", "slices": count, "lobes": lobes, "slice_height": height,
+            "slice_width": width, "mu": [float(m) for m in baked.meta["mu"]],
             "offsets": [float(o) for o in offsets], "spec": baked.meta.get("spec")}
     return atlas, meta
 
@@ -143,14 +143,16 @@ def shade(atlas, meta, normal, view):
     k0, k1, t = _tent(mu, meta["mu"])
     offsets = np.asarray(meta["offsets"], dtype=np.float64)
     two_d = meta.get("mode") == "atlas2d"
+    count = meta["slices"]
     out = 0.0
-    for k, weight in ((k0, 1.0 - t), (k1, t)):
-        delta = offsets[k][..., None]
-        centre = np.cos(delta) * r + np.sin(delta) * toward
-        centre /= np.linalg.norm(centre, axis=-1, keepdims=True)
-        if two_d:  # one map, scaled by the slice's weight k(theta_o)
-            value = _lookup(atlas, meta, 0, centre) * np.asarray(meta["k"])[k]
-        else:
-            value = _lookup(atlas, meta, k, centre)
-        out = out + weight[..., None] * value
+    for first in range(0, len(offsets) if not two_d else 1, count):  # lobe sequences
+        for k, weight in ((k0, 1.0 - t), (k1, t)):
+            delta = offsets[first + k][..., None]
+            centre = np.cos(delta) * r + np.sin(delta) * toward
+            centre /= np.linalg.norm(centre, axis=-1, keepdims=True)
+            if two_d:  # one map, scaled by the slice's weight k(theta_o)
+                value = _lookup(atlas, meta, 0, centre) * np.asarray(meta["k"])[k]
+            else:
+                value = _lookup(atlas, meta, first + k, centre)
+            out = out + weight[..., None] * value
     return out

@@ -117,12 +117,14 @@ def _frame(b, normal, view):
 
 def slice_blend_group():
     """Shared group: mu = n.v -> the two slices K0, K1 around it, weight T, and the
-    atlas UVs of their offsets (column Offset Column, row k Stride) and of their
-    2D weights (the next column); slices at mu = k / (K - 1), the first at Mu0."""
+    atlas UVs of their offsets (column Offset Column, row (First Slice + k) Stride)
+    and of their 2D weights (the next column); slices at mu = k / (K - 1), the
+    first at Mu0. First Slice selects a lobe sequence (j K) of a multi-lobe atlas."""
     float_, vector = "NodeSocketFloat", "NodeSocketVector"
     tree = _group(SLICE_GROUP, [("Normal", vector), ("Incoming", vector), ("Slices", float_),
                                 ("Mu0", float_), ("Stride", float_), ("Atlas Rows", float_),
-                                ("Atlas Cols", float_), ("Offset Column", float_)],
+                                ("Atlas Cols", float_), ("Offset Column", float_),
+                                ("First Slice", float_)],
                   [("K0", float_), ("K1", float_), ("T", float_), ("Offset UV0", vector),
                    ("Offset UV1", vector), ("Weight UV0", vector), ("Weight UV1", vector)])
     if tree is None:
@@ -143,7 +145,7 @@ def slice_blend_group():
     u_offset = b.math("DIVIDE", b.math("ADD", inputs["Offset Column"], 0.5), cols)
     u_weight = b.math("DIVIDE", b.math("ADD", inputs["Offset Column"], 1.5), cols)
     for k, suffix in ((k0, "0"), (k1, "1")):
-        base = b.math("MULTIPLY", k, inputs["Stride"])
+        base = b.math("MULTIPLY", b.math("ADD", k, inputs["First Slice"]), inputs["Stride"])
         v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", base, 0.5), rows))
         b.link(b.combine(u_offset, v), outputs["Offset UV" + suffix])
         b.link(b.combine(u_weight, v), outputs["Weight UV" + suffix])
@@ -230,13 +232,10 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
     b = _Builder(tree)
     geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
     normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
+    lobes = 1 if two_d else int(meta.get("lobes", 1))
     atlas_cols = float(width + (4 if two_d else 3))
-    blend = _group_node(b, slice_blend_group(), {
-        "Normal": normal, "Incoming": view, "Slices": float(count), "Mu0": mus[0],
-        "Stride": 1.0 if two_d else float(height + 2),
-        "Atlas Rows": float(height + 2 if two_d else count * (height + 2)),
-        "Atlas Cols": atlas_cols, "Offset Column": float(width + 2)})
-    sizes = {"Slices": 1.0 if two_d else float(count), "Slice Height": float(height),
+    atlas_slices = 1 if two_d else count * lobes
+    sizes = {"Slices": float(atlas_slices), "Slice Height": float(height),
              "Slice Width": float(width), "Atlas Cols": atlas_cols}
 
     def tap(uv, source=image):
@@ -256,19 +255,37 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
         b.link(c, node.inputs[7])
         return node.outputs[2]
 
-    values = []
-    for suffix in ("0", "1"):
-        offset = b.separate(tap(blend["Offset UV" + suffix]))[0]
-        taps = _group_node(b, atlas_taps_group(), {
-            "Normal": normal, "Incoming": view, "K": 0.0 if two_d else blend["K" + suffix],
-            "Offset": offset, **sizes})
-        top = b.mix(taps["FX"], tap(taps["UV00"]), tap(taps["UV01"]))
-        bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
-        value = b.mix(taps["FY"], top, bottom)
-        if two_d:  # one map, scaled by the slice's weight k(theta_o)
-            value = multiply(value, tap(blend["Weight UV" + suffix]))
-        values.append(value)
-    value = b.mix(blend["T"], values[0], values[1])
+    def add(a, c):
+        node = b._place(b.nodes.new("ShaderNodeMix"))
+        node.data_type = "RGBA"
+        node.blend_type = "ADD"
+        node.inputs["Factor"].default_value = 1.0
+        b.link(a, node.inputs[6])
+        b.link(c, node.inputs[7])
+        return node.outputs[2]
+
+    value = None
+    for lobe in range(lobes):  # a multi-lobe fit: one lookup per lobe sequence, summed
+        first = float(lobe * count)
+        blend = _group_node(b, slice_blend_group(), {
+            "Normal": normal, "Incoming": view, "Slices": float(count), "Mu0": mus[0],
+            "Stride": 1.0 if two_d else float(height + 2),
+            "Atlas Rows": float(atlas_slices * (height + 2)) if not two_d else float(height + 2),
+            "Atlas Cols": atlas_cols, "Offset Column": float(width + 2), "First Slice": first})
+        values = []
+        for suffix in ("0", "1"):
+            offset = b.separate(tap(blend["Offset UV" + suffix]))[0]
+            k = 0.0 if two_d else b.math("ADD", blend["K" + suffix], first)
+            taps = _group_node(b, atlas_taps_group(), {
+                "Normal": normal, "Incoming": view, "K": k, "Offset": offset, **sizes})
+            top = b.mix(taps["FX"], tap(taps["UV00"]), tap(taps["UV01"]))
+            bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
+            sample = b.mix(taps["FY"], top, bottom)
+            if two_d:  # one map, scaled by the slice's weight k(theta_o)
+                sample = multiply(sample, tap(blend["Weight UV" + suffix]))
+            values.append(sample)
+        lobe_value = b.mix(blend["T"], values[0], values[1])
+        value = lobe_value if value is None else add(value, lobe_value)
     if diffuse is not None:
         diffuse_image, diffuse_meta = diffuse
         # Offset -acos(mu) turns r onto the normal: the irradiance lookup.
@@ -289,13 +306,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
             fresnel.inputs["IOR"].default_value = fresnel_ior
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
         else:
-            add = b._place(b.nodes.new("ShaderNodeMix"))
-            add.data_type = "RGBA"
-            add.blend_type = "ADD"
-            add.inputs["Factor"].default_value = 1.0
-            b.link(value, add.inputs[6])
-            b.link(diffuse_value, add.inputs[7])
-            value = add.outputs[2]
+            value = add(value, diffuse_value)
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

@@ -90,6 +90,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
         column = layout.column(align=True)
         column.prop(settings, "method")
         column.prop(settings, "slices")
+        if settings.method == "3d":
+            column.prop(settings, "lobes")
         column.prop(settings, "map_size")
         obj = context.object
         probe = obj.glossy.probe_path if obj is not None else ""

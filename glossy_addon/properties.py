@@ -125,6 +125,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
                               ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)")],
         default="3d")
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
+    lobes: bpy.props.IntProperty(name="Lobes", description="Lobes per slice (3D map)",
+                                 default=1, min=1, max=4)
     map_size: bpy.props.IntProperty(name="Map Size", description="Lat-long rows N (N x 2N)",
                                     default=64, min=0, max=2048)
     bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")

@@ -78,6 +78,7 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
         settings = material.glossy
         baked = prefilter.prefilter(probe, settings.brdf_spec(), settings.method,
                                     settings.map_size, slices=settings.slices,
+                                    lobes_count=settings.lobes if settings.method == "3d" else 1,
                                     layout=meta.get("layout", "cube"))
         image, atlas_meta = atlas.pack(baked)
         atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,

@@ -23,12 +23,19 @@ def test_atlas_lookup_equals_the_baked_map(forest):
                                atol=1e-6)
 
 
-def test_atlas_refuses_multi_lobe_maps(forest):
+def test_multi_lobe_atlas_equals_the_baked_map(forest):
     probe = envmap.convert(forest, "latlong", "cube", 16)
-    baked = prefilter.prefilter(probe, "sum(lambert; ggx:roughness=0.3)", "3d", 8, slices=3,
-                                lobes_count=2)
-    with pytest.raises(BakeError, match="single-lobe 3D maps and 2D maps"):
-        atlas.pack(baked)
+    baked = prefilter.prefilter(probe, "sum(lambert:color=0.4; ggx:roughness=0.3)", "3d", 8,
+                                slices=3, lobes_count=2)
+    image, meta = atlas.pack(baked)
+    assert image.shape == (2 * 3 * 10, 19, 3) and meta["lobes"] == 2
+    rng = np.random.default_rng(8)
+    n = rng.normal(size=(300, 3))
+    v = n + rng.normal(scale=0.7, size=(300, 3))
+    np.testing.assert_allclose(atlas.shade(image, meta, n, v), baked.shade(n, v), rtol=1e-5,
+                               atol=1e-6)
+    with pytest.raises(BakeError, match="3D maps and 2D maps"):
+        atlas.pack(prefilter.prefilter(probe, "lambert", "irradiance", 8))
 
 
 def test_irradiance_atlas_equals_the_irradiance_map(forest):

@@ -17,7 +17,8 @@ def test_eevee_renders_what_the_numpy_lookup_predicts(tmp_path, hdri_dir):
         np.testing.assert_allclose(centre, origin, atol=1e-5, err_msg=name)
     # One copy of each versioned group, shared by both materials (the taps group
     # twice per material, once more for the sphere's diffuse part).
-    assert r["node_groups"] == {"Glossy Slice Blend v1": 2, "Glossy Atlas Taps v1": 5}
+    # (sphere: 2 lobes x 2 slices + diffuse; torus: 2 slices).
+    assert r["node_groups"] == {"Glossy Slice Blend v1": 3, "Glossy Atlas Taps v1": 7}
     assert r["Sphere_maps"] == 2 and r["Torus_maps"] == 1  # the sphere has a diffuse part
     for name in ("Sphere", "Torus"):
         result = r[name]

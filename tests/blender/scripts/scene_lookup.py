@@ -55,6 +55,7 @@ for obj, model, roughness in ((sphere, "ggx", 0.3), (torus, "ward", 0.15)):
     obj.glossy.capture_samples = 8
 sphere.data.materials[0].glossy.diffuse = (0.3, 0.2, 0.1)  # a diffuse part on the sphere,
 sphere.data.materials[0].glossy.fresnel_ior = 1.5  # blended by Fresnel (Heidrich 3.1.1)
+sphere.data.materials[0].glossy.lobes = 2  # a two-lobe fit: two lookups, summed
 torus.data.materials[0].glossy.method = "2d"  # the torus uses the 2D lobe + k(theta_o)
 
 camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
