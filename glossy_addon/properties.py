@@ -122,7 +122,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(
         name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
-                              ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)")],
+                              ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)"),
+                              ("split-sum", "Split Sum", "GGX MIP chain + DFG (GGX only)")],
         default="3d")
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
     lobes: bpy.props.IntProperty(name="Lobes", description="Lobes per slice (3D map)",

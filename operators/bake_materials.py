@@ -3,6 +3,7 @@
 import time
 
 import bpy
+import numpy as np
 
 from ..bake import atlas, exr, prefilter
 from ..bake.errors import BakeError
@@ -76,11 +77,17 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
     @staticmethod
     def _bake_one(material, path, probe, meta, probe_path):
         settings = material.glossy
-        baked = prefilter.prefilter(probe, settings.brdf_spec(), settings.method,
-                                    settings.map_size, slices=settings.slices,
-                                    lobes_count=settings.lobes if settings.method == "3d" else 1,
-                                    layout=meta.get("layout", "cube"))
-        image, atlas_meta = atlas.pack(baked)
+        if settings.method == "split-sum":
+            face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
+            baked = prefilter.prefilter(probe, settings.brdf_spec(), "split-sum", face,
+                                        layout=meta.get("layout", "cube"))
+            image, atlas_meta = atlas.pack_split_sum(baked)
+        else:
+            baked = prefilter.prefilter(probe, settings.brdf_spec(), settings.method,
+                                        settings.map_size, slices=settings.slices,
+                                        lobes_count=settings.lobes if settings.method == "3d"
+                                        else 1, layout=meta.get("layout", "cube"))
+            image, atlas_meta = atlas.pack(baked)
         atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
                            "material": material.name})
         exr.write(path, image, atlas_meta)  # atomic: never a half-written file

@@ -27,3 +27,6 @@ def test_bake_is_skipped_when_unchanged_and_redone_when_stale_or_missing(tmp_pat
     assert r["rebake"] == ["FINISHED"] and r["reattach"] == ["FINISHED"]
     assert r["image_size_after"] == [8 * 2 + 3, 3 * (8 + 2)]  # (W + 3) x K (H + 2), K = 3
     assert "save the .blend first" in r["unsaved"] and r["unsaved_probe_path"] == ""
+    assert r["split_sum_status_before"] == "stale"
+    assert r["split_sum"] == ["FINISHED", "FINISHED"]
+    assert r["split_sum_file"].endswith("_split-sum.exr")

@@ -97,6 +97,11 @@ report["rebake"] = sorted(bpy.ops.glossy.bake_materials())
 report["reattach"] = sorted(bpy.ops.glossy.attach_materials())
 image = next(n.image for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
 report["image_size_after"] = list(image.size)
+material.glossy.method = "split-sum"  # the same 2D node path, fed by the GGX MIP chain
+report["split_sum_status_before"] = status()
+report["split_sum"] = sorted(bpy.ops.glossy.bake_materials()) + sorted(
+    bpy.ops.glossy.attach_materials())
+report["split_sum_file"] = Path(material.glossy.bake_path).name
 
 # An unsaved file and no extension user folder (this checkout is not an
 # installed extension): the capture reports it and writes nothing.
