@@ -246,19 +246,10 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
         b.link(uv, node.inputs["Vector"])
         return node.outputs["Color"]
 
-    def multiply(a, c):
+    def blend(kind, a, c):
         node = b._place(b.nodes.new("ShaderNodeMix"))
         node.data_type = "RGBA"
-        node.blend_type = "MULTIPLY"
-        node.inputs["Factor"].default_value = 1.0
-        b.link(a, node.inputs[6])
-        b.link(c, node.inputs[7])
-        return node.outputs[2]
-
-    def add(a, c):
-        node = b._place(b.nodes.new("ShaderNodeMix"))
-        node.data_type = "RGBA"
-        node.blend_type = "ADD"
+        node.blend_type = kind
         node.inputs["Factor"].default_value = 1.0
         b.link(a, node.inputs[6])
         b.link(c, node.inputs[7])
@@ -267,25 +258,25 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
     value = None
     for lobe in range(lobes):  # a multi-lobe fit: one lookup per lobe sequence, summed
         first = float(lobe * count)
-        blend = _group_node(b, slice_blend_group(), {
+        slice_blend = _group_node(b, slice_blend_group(), {
             "Normal": normal, "Incoming": view, "Slices": float(count), "Mu0": mus[0],
             "Stride": 1.0 if two_d else float(height + 2),
             "Atlas Rows": float(atlas_slices * (height + 2)) if not two_d else float(height + 2),
             "Atlas Cols": atlas_cols, "Offset Column": float(width + 2), "First Slice": first})
         values = []
         for suffix in ("0", "1"):
-            offset = b.separate(tap(blend["Offset UV" + suffix]))[0]
-            k = 0.0 if two_d else b.math("ADD", blend["K" + suffix], first)
+            offset = b.separate(tap(slice_blend["Offset UV" + suffix]))[0]
+            k = 0.0 if two_d else b.math("ADD", slice_blend["K" + suffix], first)
             taps = _group_node(b, atlas_taps_group(), {
                 "Normal": normal, "Incoming": view, "K": k, "Offset": offset, **sizes})
             top = b.mix(taps["FX"], tap(taps["UV00"]), tap(taps["UV01"]))
             bottom = b.mix(taps["FX"], tap(taps["UV10"]), tap(taps["UV11"]))
             sample = b.mix(taps["FY"], top, bottom)
             if two_d:  # one map, scaled by the slice's weight k(theta_o)
-                sample = multiply(sample, tap(blend["Weight UV" + suffix]))
+                sample = blend("MULTIPLY", sample, tap(slice_blend["Weight UV" + suffix]))
             values.append(sample)
-        lobe_value = b.mix(blend["T"], values[0], values[1])
-        value = lobe_value if value is None else add(value, lobe_value)
+        lobe_value = b.mix(slice_blend["T"], values[0], values[1])
+        value = lobe_value if value is None else blend("ADD", value, lobe_value)
     if diffuse is not None:
         diffuse_image, diffuse_meta = diffuse
         # Offset -acos(mu) turns r onto the normal: the irradiance lookup.
@@ -306,7 +297,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
             fresnel.inputs["IOR"].default_value = fresnel_ior
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
         else:
-            value = add(value, diffuse_value)
+            value = blend("ADD", value, diffuse_value)
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

@@ -9,7 +9,7 @@ from . import fresnel
 from .base import BRDF, register
 from .microfacet import beckmann_d, reflect_about, sample_beckmann_h
 from .params import Param
-from .vectors import around_axis, broadcast_wo_u, dot, half_vector, reflect
+from .vectors import around_axis, broadcast_wo_u, cosine_hemisphere, dot, half_vector, reflect
 
 __all__ = ["Lambert", "Phong", "BlinnPhong", "Ward", "CookTorrance"]
 
@@ -23,6 +23,24 @@ def _cos_power_sample(axis, u, exponent):
 def _cos_power_pdf(cos_angle, exponent):
     return np.where(cos_angle > 0, (exponent + 1.0) / (2.0 * np.pi)
                     * np.power(np.clip(cos_angle, 0.0, 1.0), exponent), 0.0)
+
+
+def _specular_weights(params):
+    """(specular, diffuse) sampling probabilities from the mean ks and kd."""
+    ks = float(np.mean(params["ks"]))
+    kd = float(np.mean(params.get("kd", 0.0)))
+    total = ks + kd
+    return (1.0, 0.0) if total == 0 else (ks / total, kd / total)
+
+
+def _mixture_sample(wo, u, spec, sample_lobe):
+    """Pick the specular lobe with probability ``spec`` (else a cosine direction),
+    reusing the uniform; returns wi (..., 3)."""
+    pick = u[..., 0] < spec
+    u0 = np.where(pick, u[..., 0] / max(spec, 1e-300), (u[..., 0] - spec) / max(1 - spec, 1e-300))
+    uu = np.stack([np.clip(u0, 0.0, 1.0 - 1e-16), u[..., 1]], -1)
+    diffuse, _ = cosine_hemisphere(uu)
+    return np.where(pick[..., None], sample_lobe(wo, uu), diffuse)
 
 
 @register
@@ -61,24 +79,11 @@ class Phong(BRDF):
                 + np.asarray(self.params["kd"]) / np.pi)
 
     def _weights(self):
-        ks = float(np.mean(self.params["ks"]))
-        kd = float(np.mean(self.params["kd"]))
-        total = ks + kd
-        return (1.0, 0.0) if total == 0 else (ks / total, kd / total)
+        return _specular_weights(self.params)
 
     def sample(self, wo, u):
         wo, u = broadcast_wo_u(wo, u)
-        spec, _ = self._weights()
-        pick = u[..., 0] < spec
-        u0 = np.where(pick, u[..., 0] / max(spec, 1e-300),
-                      (u[..., 0] - spec) / max(1 - spec, 1e-300))
-        uu = np.stack([np.clip(u0, 0.0, 1.0 - 1e-16), u[..., 1]], -1)
-        lobe = self._sample_lobe(wo, uu)
-        cos_theta = np.sqrt(1.0 - uu[..., 0])
-        phi = 2.0 * np.pi * uu[..., 1]
-        diffuse = np.stack([np.sqrt(uu[..., 0]) * np.cos(phi), np.sqrt(uu[..., 0]) * np.sin(phi),
-                            cos_theta], -1)
-        wi = np.where(pick[..., None], lobe, diffuse)
+        wi = _mixture_sample(wo, u, self._weights()[0], self._sample_lobe)
         return wi, self.pdf(wi, wo)
 
     def _sample_lobe(self, wo, u):
@@ -125,24 +130,14 @@ class _HalfVectorSampled(BRDF):
     """Models sampled by Beckmann-like half vectors with density D(h) h_z."""
 
     def _weights(self):
-        ks = float(np.mean(self.params["ks"]))
-        kd = float(np.mean(self.params.get("kd", 0.0)))
-        total = ks + kd
-        return (1.0, 0.0) if total == 0 else (ks / total, kd / total)
+        return _specular_weights(self.params)
+
+    def _sample_lobe(self, wo, u):
+        return reflect_about(wo, sample_beckmann_h(u, self.ax, self.ay))
 
     def sample(self, wo, u):
         wo, u = broadcast_wo_u(wo, u)
-        spec, _ = self._weights()
-        pick = u[..., 0] < spec
-        u0 = np.where(pick, u[..., 0] / max(spec, 1e-300),
-                      (u[..., 0] - spec) / max(1 - spec, 1e-300))
-        uu = np.stack([np.clip(u0, 0.0, 1.0 - 1e-16), u[..., 1]], -1)
-        m = sample_beckmann_h(uu, self.ax, self.ay)
-        lobe = reflect_about(wo, m)
-        phi = 2.0 * np.pi * uu[..., 1]
-        r = np.sqrt(uu[..., 0])
-        diffuse = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - uu[..., 0])], -1)
-        wi = np.where(pick[..., None], lobe, diffuse)
+        wi = _mixture_sample(wo, u, self._weights()[0], self._sample_lobe)
         return wi, self.pdf(wi, wo)
 
     def pdf(self, wi, wo):
