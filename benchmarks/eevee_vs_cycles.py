@@ -30,6 +30,7 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.bake import exr  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world, exact_cycles, float_exr_output  # noqa: E402
 
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
@@ -40,17 +41,9 @@ def scene_setup(hdri, size):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     glossy.register()
     scene = bpy.context.scene
-    scene.render.resolution_x = scene.render.resolution_y = size
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    world = bpy.data.worlds.new("world")
-    world.use_nodes = True
-    scene.world = world
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    env.image = bpy.data.images.load(str(hdri))
-    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+    float_exr_output(scene, size)
+    environment_world(scene, hdri)
+    world = scene.world
     if hasattr(world, "sun_threshold"):
         world.sun_threshold = 0.0
     bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
@@ -99,11 +92,7 @@ def main():
     reference = glossy_bsdf("reference")
     sphere.data.materials.append(reference)
 
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = args.spp
-    scene.cycles.use_denoising = False
-    scene.cycles.blur_glossy = 0.0
+    exact_cycles(scene, args.spp)
     seeds = []
     for seed in (1, 2):
         scene.cycles.seed = seed

@@ -8,6 +8,7 @@ import numpy as np
 from ..bake import atlas, exr, prefilter
 from ..bake.errors import BakeError
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
+from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import check_may_write, output_folder
 from ..glossy_addon.progress import BlenderProgress
@@ -43,7 +44,7 @@ class _MaterialsOperator:
         return True
 
 
-class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
+class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operator):
     """Prefilter the object's probe for each of its materials' BRDFs (skips up-to-date bakes)"""
 
     bl_idname = "glossy.bake_materials"
@@ -122,48 +123,23 @@ class GLOSSY_OT_bake_materials(_MaterialsOperator, bpy.types.Operator):
         self.report({"INFO"}, f"Glossy baked {len(todo)} material(s)")
         return {"FINISHED"}
 
-    # UI: one material per timer tick; Esc stops between materials (each file
-    # is written atomically, so nothing half-written remains).
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        try:
-            _, self._probe, self._meta, self._probe_path, self._todo = self._prepare(context)
-        except (BakeError, ValueError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        self._done = 0
-        self._progress = BlenderProgress(context, "bake materials").__enter__()
-        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
-        context.window_manager.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+    # UI: one material per timer tick; Esc stops between materials.
+    progress_title = "bake materials"
 
-    def _stop(self, context):
-        context.window_manager.event_timer_remove(self._timer)
-        self._progress.__exit__(None, None, None)
+    def _begin(self, context):
+        _, self._probe, self._meta, self._probe_path, todo = self._prepare(context)
+        return todo
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._stop(context)
-            self.report({"WARNING"}, f"Bake cancelled after {self._done} material(s)")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        if self._done >= len(self._todo):
-            self._stop(context)
-            self.report({"INFO"}, f"Glossy baked {self._done} material(s)")
-            return {"FINISHED"}
-        name, path = self._todo[self._done]
-        try:
-            self._bake_one(bpy.data.materials[name], path, self._probe, self._meta,
-                           self._probe_path)
-        except (BakeError, ValueError, KeyError) as error:
-            self._stop(context)
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        self._done += 1
-        self._progress(self._done / len(self._todo), f"baked {name}")
-        return {"RUNNING_MODAL"}
+    def _run_step(self, context, step):
+        name, path = step
+        self._bake_one(bpy.data.materials[name], path, self._probe, self._meta, self._probe_path)
+        return f"baked {name}"
+
+    def _done_message(self):
+        return f"Glossy baked {self._done} material(s)"
+
+    def _cancel_message(self):
+        return f"Bake cancelled after {self._done} material(s)"
 
 
 class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):

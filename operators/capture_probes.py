@@ -9,6 +9,7 @@ from ..bake import envmap, exr
 from ..bake.errors import BakeError
 from ..glossy_addon.capture import CubeCapture
 from ..glossy_addon.centres import probe_centre
+from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import check_may_write, output_folder
 from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.world import find_environment_image, image_pixels
@@ -20,14 +21,12 @@ def _targets(context):
     return [obj for obj in context.selected_objects if obj.type == "MESH"]
 
 
-class GLOSSY_OT_capture_probes(bpy.types.Operator):
+class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
     """Capture a cube probe at the centre of each selected mesh (six renders, or the world image)"""
 
     bl_idname = "glossy.capture_probes"
     bl_label = "Capture Probes"
     bl_options = {"REGISTER", "UNDO"}
-
-    _timer = None
 
     @classmethod
     def poll(cls, context):
@@ -121,62 +120,42 @@ class GLOSSY_OT_capture_probes(bpy.types.Operator):
         self.report({"INFO"}, f"Glossy captured {len(written)} probe(s) into {folder}")
         return {"FINISHED"}
 
-    # --- modal (UI): one face per timer tick, Esc cancels -------------------------
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        try:
-            self._plan_items = self._plan(context)
-            self._folder = output_folder()
-            for name, _, _ in self._plan_items:
-                self._path(self._folder, name)
-        except (BakeError, ValueError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        self._steps = [(i, face) for i in range(len(self._plan_items)) for face in range(6)]
+    # --- modal (UI): one face (or one world resample) per timer tick ---------------
+    progress_title = "capture probes"
+
+    def _begin(self, context):
+        self._plan_items = self._plan(context)
+        self._folder = output_folder()
+        for name, _, _ in self._plan_items:
+            self._path(self._folder, name)
         self._faces = {}
-        self._done = 0
-        self._progress = BlenderProgress(context, "capture probes").__enter__()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        steps = []
+        for index, (name, _, _) in enumerate(self._plan_items):
+            world = bpy.data.objects[name].glossy.probe_source == "WORLD"
+            steps += [(index, None)] if world else [(index, face) for face in range(6)]
+        return steps
 
-    def _stop(self, context):
-        context.window_manager.event_timer_remove(self._timer)
-        self._progress.__exit__(None, None, None)
+    def _run_step(self, context, step):
+        index, face = step
+        name, centre, used = self._plan_items[index]
+        obj = bpy.data.objects[name]
+        obj.glossy.probe_centre = tuple(float(c) for c in centre)
+        if face is None:
+            result = self._world_cube(context, obj.glossy.probe_resolution)
+        else:
+            with self._capture(context, name) as capture:
+                self._faces.setdefault(index, []).append(capture.render_face(face))
+            if face < 5:
+                return f"{name}: face {face + 1}/6"
+            result = self._faces.pop(index)
+        self._finish(context, name, centre, used, result, self._folder)
+        return f"{name}: probe written"
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._stop(context)
-            self.report({"WARNING"}, "Probe capture cancelled; no file was written")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            index, face = self._steps[self._done]
-            name, centre, used = self._plan_items[index]
-            obj = bpy.data.objects[name]
-            obj.glossy.probe_centre = tuple(float(c) for c in centre)
-            if obj.glossy.probe_source == "WORLD":
-                self._faces[index] = self._world_cube(context, obj.glossy.probe_resolution)
-                self._done += 6 - face
-            else:
-                with self._capture(context, name) as capture:
-                    self._faces.setdefault(index, []).append(capture.render_face(face))
-                self._done += 1
-            self._progress(self._done / len(self._steps), f"{name}: face {face + 1}/6")
-            if self._done % 6 == 0 or self._done == len(self._steps):
-                self._finish(context, name, centre, used, self._faces.pop(index), self._folder)
-        except (BakeError, ValueError, RuntimeError, KeyError) as error:
-            self._stop(context)
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        if self._done >= len(self._steps):
-            self._stop(context)
-            self.report({"INFO"}, f"Glossy captured {len(self._plan_items)} probe(s)")
-            return {"FINISHED"}
-        return {"RUNNING_MODAL"}
+    def _done_message(self):
+        return f"Glossy captured {len(self._plan_items)} probe(s)"
+
+    def _cancel_message(self):
+        return "Probe capture cancelled; no unfinished probe was written"
 
 
 classes = (GLOSSY_OT_capture_probes,)

@@ -25,6 +25,7 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.bake import exr, preview  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world, exact_cycles, float_exr_output  # noqa: E402
 
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
@@ -56,21 +57,11 @@ def main():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     glossy.register()
     scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 240, 120
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    world = bpy.data.worlds.new("forest")
-    world.use_nodes = True
-    scene.world = world
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    env.image = bpy.data.images.load(str(studio_lights() / "forest.exr"))
-    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+    float_exr_output(scene, 240, 120)
+    environment_world(scene, studio_lights() / "forest.exr", "forest")
+    world = scene.world
     if hasattr(world, "sun_threshold"):
         world.sun_threshold = 0.0
-    scene.cycles.device = "CPU"
-    scene.cycles.use_denoising = False
-    scene.cycles.blur_glossy = 0.0
     adders = {"sphere": bpy.ops.mesh.primitive_uv_sphere_add,
               "monkey": bpy.ops.mesh.primitive_monkey_add,
               "torus": bpy.ops.mesh.primitive_torus_add}
@@ -107,7 +98,7 @@ def main():
     for engine, samples in (("BLENDER_EEVEE", 16), ("CYCLES", 128)):
         scene.render.engine = engine
         if engine == "CYCLES":
-            scene.cycles.samples = samples
+            exact_cycles(scene, samples)
             for obj, _, truth in pairs:
                 obj.data.materials[0] = truth
         else:

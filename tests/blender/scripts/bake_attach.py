@@ -12,16 +12,12 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 glossy.register()
 scene = bpy.context.scene
-world = bpy.data.worlds.new("world")
-world.use_nodes = True
-scene.world = world
-env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-env.image = bpy.data.images.load(hdri)
-world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+environment_world(scene, hdri)
 bpy.ops.mesh.primitive_uv_sphere_add(location=(1.0, 2.0, 0.5))
 sphere = bpy.context.object
 report = {"poll_no_material": bpy.ops.glossy.bake_materials.poll()}
@@ -106,11 +102,7 @@ report["split_sum_file"] = Path(material.glossy.bake_path).name
 # An unsaved file and no extension user folder (this checkout is not an
 # installed extension): the capture reports it and writes nothing.
 bpy.ops.wm.read_homefile(use_empty=True)
-world = bpy.data.worlds.new("world")
-world.use_nodes = True
-bpy.context.scene.world = world
-env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-env.image = bpy.data.images.load(hdri)
+environment_world(bpy.context.scene, hdri)
 bpy.ops.mesh.primitive_uv_sphere_add()
 bpy.context.object.glossy.probe_source = "WORLD"
 bpy.context.object.glossy.probe_resolution = 16

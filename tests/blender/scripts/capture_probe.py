@@ -21,24 +21,16 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.bake import envmap, exr  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world, exact_cycles, float_exr_output  # noqa: E402
 from mathutils import Matrix, Vector  # noqa: E402
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 glossy.register()
 scene = bpy.context.scene
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.use_denoising = False
-scene.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-scene.cycles.filter_width = 0.01
+exact_cycles(scene, 1)
 scene.cycles.max_bounces = 0
 scene.view_settings.view_transform = "Standard"
-world = bpy.data.worlds.new("world")
-world.use_nodes = True
-scene.world = world
-env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-env.image = bpy.data.images.load(hdri)
-world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+environment_world(scene, hdri)
 
 # Emissive blocks around the probe, so the faces show scene geometry too.
 for index, location in enumerate([(6, -2, 1), (1, 4, 0.5), (2, -1, 5), (-3, -1, -1)]):
@@ -93,11 +85,7 @@ camera_data.angle = math.pi / 2
 camera = bpy.data.objects.new("reference", camera_data)
 scene.collection.objects.link(camera)
 scene.camera = camera
-scene.render.resolution_x = scene.render.resolution_y = 16
-scene.render.resolution_percentage = 100
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.cycles.samples = 1
+float_exr_output(scene, 16)
 cube = envmap.get_layout("cube")
 differences = []
 for axis in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:

@@ -28,7 +28,9 @@ workdir, result_path = Path(sys.argv[1]), sys.argv[2]
 repo = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(repo))
 
+import _checkout  # noqa: E402,F401  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+from glossy.glossy_addon.scenes import exact_cycles, float_exr_output  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 from bake import exr  # noqa: E402
@@ -62,22 +64,10 @@ for index in range(GRID * GRID):
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
-scene.render.engine = "CYCLES"
+exact_cycles(scene, 4)
 cycles = scene.cycles
-cycles.device = "CPU"
-cycles.use_denoising = False
-cycles.blur_glossy = 0.0
 cycles.caustics_reflective = True
-cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-cycles.filter_width = 0.01
-cycles.sample_clamp_direct = 0.0
-cycles.sample_clamp_indirect = 0.0
-cycles.use_adaptive_sampling = False
-scene.render.resolution_x = scene.render.resolution_y = GRID * CELL
-scene.render.resolution_percentage = 100
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.view_settings.view_transform = "Standard"
+float_exr_output(scene, GRID * CELL)
 
 world = bpy.data.worlds.new("world")
 world.use_nodes = True

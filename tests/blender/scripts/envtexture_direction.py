@@ -21,7 +21,9 @@ import numpy as np
 repo, workdir, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
 sys.path.insert(0, str(repo))
 
+import _checkout  # noqa: E402,F401  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world, exact_cycles, float_exr_output  # noqa: E402
 from mathutils import Euler, Matrix  # noqa: E402
 
 from bake import exr  # noqa: E402
@@ -47,29 +49,12 @@ exr.write(env_path, coded, {"layout": "latlong"})
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = 1
-scene.cycles.use_denoising = False
-scene.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-scene.cycles.filter_width = 0.01
-scene.render.resolution_x = scene.render.resolution_y = PIXELS
-scene.render.resolution_percentage = 100
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.render.image_settings.exr_codec = "ZIP"
-scene.view_settings.view_transform = "Standard"
-
-world = bpy.data.worlds.new("coded")
-world.use_nodes = True
-scene.world = world
-nodes, links = world.node_tree.nodes, world.node_tree.links
-background = nodes["Background"]
-env = nodes.new("ShaderNodeTexEnvironment")
-env.image = bpy.data.images.load(str(env_path))
+exact_cycles(scene, 1)
+float_exr_output(scene, PIXELS)
+env = environment_world(scene, env_path, "coded")
+background = scene.world.node_tree.nodes["Background"]
 env.image.colorspace_settings.name = "Non-Color"
 env.interpolation = "Closest"
-links.new(env.outputs["Color"], background.inputs["Color"])
 background.inputs["Strength"].default_value = 1.0
 
 camera_data = bpy.data.cameras.new("cam")

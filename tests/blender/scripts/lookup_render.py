@@ -20,6 +20,7 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from glossy.bake import atlas, envmap, exr, prefilter  # noqa: E402
 from glossy.glossy_addon.nodes import build_lookup, load_atlas  # noqa: E402
+from glossy.glossy_addon.scenes import exact_cycles, float_exr_output  # noqa: E402
 
 forest, _ = exr.read(hdri)
 probe = envmap.convert(forest, "latlong", "cube", 24)
@@ -30,11 +31,7 @@ exr.write(atlas_path, image_data, meta)
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
-scene.view_settings.view_transform = "Standard"
-scene.render.resolution_x = scene.render.resolution_y = 64
-scene.render.resolution_percentage = 100
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
+float_exr_output(scene, 64)
 scene.render.film_transparent = False
 scene.render.filter_size = 0.0
 bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
@@ -70,11 +67,7 @@ report = {}
 for engine in ("BLENDER_EEVEE", "CYCLES"):
     scene.render.engine = engine
     if engine == "CYCLES":
-        scene.cycles.samples = 1
-        scene.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-        scene.cycles.filter_width = 0.01
-        scene.cycles.device = "CPU"
-        scene.cycles.use_denoising = False
+        exact_cycles(scene, 1)
     else:
         scene.eevee.taa_render_samples = 1
     renders = {}

@@ -21,6 +21,7 @@ import glossy  # noqa: E402
 import numpy as np
 from glossy.bake import atlas, exr  # noqa: E402
 from glossy.bake.brdf import fresnel  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world, float_exr_output  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 workdir, hdri, result_path = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
@@ -30,12 +31,7 @@ scene = bpy.context.scene
 scene.view_settings.view_transform = "Standard"
 scene.cycles.device = "CPU"
 scene.cycles.use_denoising = False
-world = bpy.data.worlds.new("world")
-world.use_nodes = True
-scene.world = world
-env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-env.image = bpy.data.images.load(hdri)
-world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs[0])
+environment_world(scene, hdri)
 
 bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, -1.2))
 bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, location=(-1.3, 0.0, 0.0))
@@ -111,9 +107,7 @@ def emission_material(name, color=None, encode_normal=False):
 scene.render.engine = "BLENDER_EEVEE"
 scene.eevee.taa_render_samples = 1
 scene.render.filter_size = 0.0
-scene.render.resolution_x = scene.render.resolution_y = 96
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
+float_exr_output(scene, 96)
 
 
 def render(name):

@@ -1,0 +1,49 @@
+"""Scene set-up that scripts, tests, benchmarks and the demo share.
+
+Small and public so pipeline scripts can use it too: an environment world from
+an image file, and float EXR output that stores radiance as rendered.
+"""
+
+import bpy
+
+
+def environment_world(scene, image_path, name="world"):
+    """Give ``scene`` a new world lit by the environment image; returns the
+    Environment Texture node (its image already loaded)."""
+    world = bpy.data.worlds.new(name)
+    world.use_nodes = True
+    scene.world = world
+    tree = world.node_tree
+    node = tree.nodes.new("ShaderNodeTexEnvironment")
+    node.image = bpy.data.images.load(str(image_path))
+    tree.links.new(node.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    return node
+
+
+def float_exr_output(scene, width, height=None):
+    """Render at width x height (100%) to 32-bit float EXR with the Standard view
+    transform, so saved pixels are the scene-linear radiance."""
+    render = scene.render
+    render.resolution_x = width
+    render.resolution_y = height or width
+    render.resolution_percentage = 100
+    render.image_settings.file_format = "OPEN_EXR"
+    render.image_settings.color_depth = "32"
+    scene.view_settings.view_transform = "Standard"
+
+
+def exact_cycles(scene, samples):
+    """Cycles as a reference renderer (shared/docs/CYCLES.md): CPU, no denoiser,
+    Filter Glossy 0, a 0.01 px Blackman-Harris filter (pixel-centre rays), no
+    clamping and no adaptive sampling."""
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = int(samples)
+    cycles.use_denoising = False
+    cycles.blur_glossy = 0.0
+    cycles.pixel_filter_type = "BLACKMAN_HARRIS"
+    cycles.filter_width = 0.01
+    cycles.sample_clamp_direct = 0.0
+    cycles.sample_clamp_indirect = 0.0
+    cycles.use_adaptive_sampling = False
