@@ -33,6 +33,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bake import brdf, envmap, exr, lobes, prefilter  # noqa: E402
+from bake.reference import reflected_radiance  # noqa: E402
 from bake.zonal import brute_force_convolve  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
@@ -57,7 +58,6 @@ def small_case(forest):
     start = time.perf_counter()
     baked = prefilter.prefilter(probe, fit, "3d", 32)
     glossy = time.perf_counter() - start
-    d, v, o = texels_of(CUBE, probe)
     targets = LATLONG.texel_directions((32, 64))
     start = time.perf_counter()
     errors = []
@@ -74,23 +74,8 @@ def small_case(forest):
           f"{max(errors):.4f} (the brute force point-samples the probe's texels)")
 
 
-def reflected(model, directions, values, omega, normals, views):
-    """Brute force: sum over probe texels of L f(l, v) (n.l)+ omega in each local frame."""
-    out = np.empty((len(normals), 3))
-    for index, (n, v) in enumerate(zip(normals, views, strict=True)):
-        t = np.cross(n, [0.3, 0.5, 0.8])
-        t /= np.linalg.norm(t)
-        frame = np.stack([t, np.cross(n, t), n])
-        wi = directions @ frame.T
-        wo = np.broadcast_to(frame @ v, wi.shape)
-        weight = model.f(wi, wo) * np.clip(wi[:, 2:3], 0, None) * omega[:, None]
-        out[index] = np.sum(weight * values, axis=0)
-    return out
-
-
 def method_error(forest, quick):
     probe = envmap.convert(forest, "latlong", "cube", 48 if quick else 128)
-    d, v, o = texels_of(CUBE, probe)
     rng = np.random.default_rng(5)
     half = 100 if quick else 200
     count = 2 * half
@@ -108,7 +93,7 @@ def method_error(forest, quick):
     print(f"   {'BRDF':22s} {'mode':18s} {'median':>7s} {'p95':>7s} {'grazing median':>15s}")
     for spec in ("ggx:roughness=0.1", "ggx:roughness=0.3", "ggx:roughness=0.6", "ward:alpha=0.1"):
         model = brdf.parse(spec)
-        truth = reflected(model, d, v, o, normals, views) @ LUM
+        truth = reflected_radiance(model, probe, "cube", normals, views) @ LUM
         runs = [("3d", 8), ("3d", 16), ("2d", 16)]
         if spec.startswith("ggx"):
             runs.append(("split-sum", 0))

@@ -5,6 +5,7 @@ import pytest
 
 from bake import brdf, envmap, lobes, prefilter
 from bake.errors import BakeError
+from bake.reference import reflected_radiance
 from bake.zonal import brute_force_convolve
 
 CUBE = envmap.get_layout("cube")
@@ -163,23 +164,6 @@ def test_single_bright_texel_appears_where_the_peak_offset_says():
         assert np.argmax(truths) == 1, (k, truths)
 
 
-def true_radiance(model, probe, normals, views):
-    """Brute force: sum over probe texels of L f(l, v) (n.l)+ omega, in each local frame."""
-    directions = CUBE.texel_directions(probe.shape[:2]).reshape(-1, 3)
-    values = probe.reshape(-1, 3)
-    omega = CUBE.solid_angles(probe.shape[:2]).reshape(-1)
-    out = []
-    for n, v in zip(normals, views, strict=True):
-        t = np.cross(n, [0.3, 0.5, 0.8])
-        t /= np.linalg.norm(t)
-        frame = np.stack([t, np.cross(n, t), n])
-        wi = directions @ frame.T
-        wo = np.broadcast_to(frame @ v, wi.shape)
-        weight = model.f(wi, wo) * np.clip(wi[:, 2:3], 0, None) * omega[:, None]
-        out.append(np.sum(weight * values, axis=0))
-    return np.array(out)
-
-
 def test_3d_map_beats_2d_and_split_sum_at_grazing_views(forest):
     """Kautz & McCool's claim: per-elevation lobes help most at grazing angles."""
     probe = envmap.convert(forest, "latlong", "cube", 24)
@@ -192,7 +176,7 @@ def test_3d_map_beats_2d_and_split_sum_at_grazing_views(forest):
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     cos_o = rng.uniform(0.08, 0.3, 120)  # grazing
     views = cos_o[:, None] * normals + np.sqrt(1 - cos_o**2)[:, None] * tangent
-    truth = true_radiance(model, probe, normals, views)
+    truth = reflected_radiance(model, probe, "cube", normals, views)
 
     def median_error(mode):
         baked = prefilter.prefilter(probe, spec, mode, 48, slices=16)
