@@ -58,6 +58,7 @@ def small_case(forest):
     start = time.perf_counter()
     baked = prefilter.prefilter(probe, fit, "3d", 32)
     glossy = time.perf_counter() - start
+    d, v, o = texels_of(CUBE, probe)
     targets = LATLONG.texel_directions((32, 64))
     start = time.perf_counter()
     errors = []
