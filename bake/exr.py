@@ -13,6 +13,10 @@ Writes are atomic: the file is written beside the target under a temporary
 name and renamed over it, so an interrupted write never leaves a half file.
 Any compression OpenEXR supports is read (Blender's bundled HDRIs are DWAB);
 files are written with ZIP compression, which every EXR reader handles.
+
+Inside a Linux process that holds its own shared OpenEXR library (Blender),
+single-part scanline files go through the NumPy codec bake.exr_codec instead
+of the package (see :func:`backend`).
 """
 
 import contextlib
@@ -23,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import exr_codec
 from .errors import BakeError
 
 __all__ = ["read", "write", "read_header", "read_parts", "write_parts", "EXR_MAGIC",
@@ -31,6 +36,41 @@ __all__ = ["read", "write", "read_header", "read_parts", "write_parts", "EXR_MAG
 EXR_MAGIC = b"\x76\x2f\x31\x01"
 META_ATTRIBUTE = "glossy"
 _CHANNELS_BY_COUNT = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
+
+
+def _openexr_core_loaded() -> bool:
+    """True when this process already holds a shared OpenEXR C library (a
+    Blender on Linux: official builds ship libOpenEXRCore, distributions link
+    the system one)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            return any("libOpenEXRCore" in line for line in maps)
+    except OSError:  # not Linux: no flat symbol namespace, nothing to clash
+        return False
+
+
+def backend() -> str:
+    """Which EXR implementation this process uses: ``"openexr"`` (the OpenEXR
+    package) or ``"numpy"`` (bake.exr_codec).
+
+    On Linux, inside a process that already holds a shared libOpenEXRCore
+    (Blender), the package's C core functions would bind to that copy: with
+    Debian's Blender 4.3 (OpenEXR 3.1) writing fails, and RTLD_DEEPBIND crashes
+    against Blender's jemalloc. There Glossy's own scanline files go through
+    the NumPy codec; a file outside the codec's scope (a DWAB HDRI) is still
+    handed to the package for reading. GLOSSY_EXR_BACKEND=openexr|numpy
+    overrides the choice (``numpy``: no fallback).
+    """
+    forced = os.environ.get("GLOSSY_EXR_BACKEND", "")
+    if forced in ("openexr", "numpy"):
+        return forced
+    return "numpy" if _openexr_core_loaded() else "openexr"
+
+
+def _need_openexr_package(what: str) -> None:
+    if backend() == "numpy":
+        raise BakeError(f"{what} need the OpenEXR package, which cannot be used inside "
+                        "this Blender (it links its own OpenEXR); use the command line")
 
 
 def _import_openexr():
@@ -81,8 +121,49 @@ def _check_readable(path: Path) -> None:
         raise BakeError(f"{path}: not an OpenEXR file (wrong magic number)")
 
 
+def _decode_with_codec(path: Path):
+    """(header, {channel: (H, W)}) through bake.exr_codec, or raise BakeError."""
+    try:
+        return exr_codec.decode(path.read_bytes())
+    except exr_codec.ExrCodecError as error:
+        raise BakeError(f"{path}: truncated, corrupt or unsupported OpenEXR file "
+                        f"({error})") from error
+
+
+def _group_planes(planes: dict) -> dict:
+    """{layer: (H, W, C)} from full channel names, as the OpenEXR package groups
+    them: R, G, B, A (those present, in that order) or one channel per layer."""
+    groups = {}
+    for name, plane in planes.items():
+        layer, _, channel = name.rpartition(".")
+        groups.setdefault(layer, {})[channel] = plane
+    layers = {}
+    for layer, channels in groups.items():
+        if set(channels) <= {"R", "G", "B", "A"}:
+            order = [c for c in "RGBA" if c in channels]
+        elif len(channels) == 1:
+            order = list(channels)
+        else:
+            for channel in sorted(channels):
+                layers[f"{layer}.{channel}" if layer else channel] = (
+                    channels[channel][:, :, None].astype(np.float32))
+            continue
+        layers[layer] = np.stack([channels[c] for c in order], axis=-1).astype(np.float32)
+    return layers
+
+
 def _open_layers(path: Path):
     """Return (header dict, {layer: float32 (H, W, C)}) or raise BakeError."""
+    if backend() == "numpy":
+        try:
+            header, planes = _decode_with_codec(path)
+            return header, _group_planes(planes)
+        except BakeError as error:
+            # Glossy never writes such files; a script may still read one (a DWAB
+            # HDRI): try the package unless the codec was asked for explicitly.
+            if not isinstance(error.__cause__, exr_codec.ExrCodecUnsupported) or \
+                    os.environ.get("GLOSSY_EXR_BACKEND") == "numpy":
+                raise
     OpenEXR = _import_openexr()
     try:
         with _quiet_native(), OpenEXR.File(str(path)) as exr_file:
@@ -107,7 +188,7 @@ def _layer_name(key: str) -> str:
     """Layer of a channel group key: 'RGB' -> '', 'slice.0' -> 'slice.0'."""
     if key in ("RGB", "RGBA", "Y", "R", "G", "B", "A"):
         return ""
-    for suffix in (".RGBA", ".RGB"):
+    for suffix in (".RGBA", ".RGB", ".Y"):
         if key.endswith(suffix):
             return key[: -len(suffix)]
     return key
@@ -155,6 +236,12 @@ def read_header(path) -> dict:
     """The file's header attributes as a dict (OpenEXR binding values)."""
     path = Path(path)
     _check_readable(path)
+    if backend() == "numpy":
+        try:
+            return exr_codec.read_header(path.read_bytes())[0]
+        except exr_codec.ExrCodecError as error:
+            raise BakeError(f"{path}: truncated, corrupt or unsupported OpenEXR file "
+                            f"({error})") from error
     OpenEXR = _import_openexr()
     try:
         with _quiet_native(), OpenEXR.File(str(path), header_only=True) as exr_file:
@@ -213,7 +300,6 @@ def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
     ``half=True`` stores 16-bit floats; the default is 32-bit float.
     Returns the path written.
     """
-    OpenEXR = _import_openexr()
     path = Path(path)
     layers = image if isinstance(image, dict) else {"": image}
     dtype = np.float16 if half else np.float32
@@ -229,11 +315,16 @@ def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
             channels[key] = plane.astype(dtype)
     if not channels:
         raise ValueError("nothing to write: no layers given")
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    if meta is not None:
-        header[META_ATTRIBUTE] = json.dumps(meta, sort_keys=True)
     if not path.parent.is_dir():
         raise BakeError(f"{path.parent}: output folder does not exist")
+    text = None if meta is None else json.dumps(meta, sort_keys=True)
+    if backend() == "numpy":
+        data = exr_codec.encode(channels, None if text is None else {META_ATTRIBUTE: text})
+        return _atomic_write(path, lambda target: Path(target).write_bytes(data))
+    OpenEXR = _import_openexr()
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    if text is not None:
+        header[META_ATTRIBUTE] = text
     return _atomic_write(path, lambda target: OpenEXR.File(header, channels).write(target))
 
 
@@ -260,6 +351,7 @@ def write_parts(path, parts: dict, meta: dict | None = None) -> Path:
     arrays of any sizes (a MIP chain, a LUT). ``meta`` goes to every part's
     ``glossy`` attribute.
     """
+    _need_openexr_package("multi-part files")
     OpenEXR = _import_openexr()
     path = Path(path)
     if not parts:
@@ -286,6 +378,7 @@ def write_parts(path, parts: dict, meta: dict | None = None) -> Path:
 
 def read_parts(path, *, nonfinite: str = "error"):
     """Read every part of an EXR: ({part name: (H, W, C) float32}, meta of part 0)."""
+    _need_openexr_package("multi-part files")
     OpenEXR = _import_openexr()
     path = Path(path)
     _check_readable(path)

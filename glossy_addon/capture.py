@@ -15,6 +15,7 @@ from mathutils import Matrix, Vector
 
 from ..bake import exr
 from ..bake.envmap.cube import _FACE_TABLE
+from .scenes import render_engine
 
 #: GL frame -> Blender: (x, y, z) = (g0, -g2, g1).
 _GL_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -60,10 +61,12 @@ class CubeCapture:
                            render.pixel_aspect_y),
             "filepath": render.filepath, "film": render.film_transparent,
             "format": (settings.file_format, settings.color_depth, settings.color_mode),
+            "codec": settings.exr_codec,
             "hidden": [(obj.name, obj.hide_render) for obj in self.hidden],
         }
         if self.engine == "CYCLES":
             self._saved["samples"] = scene.cycles.samples
+            self._saved["denoise"] = scene.cycles.use_denoising
         else:
             self._saved["samples"] = scene.eevee.taa_render_samples
         data = bpy.data.cameras.new("Glossy probe camera")
@@ -74,7 +77,7 @@ class CubeCapture:
         self.camera = bpy.data.objects.new("Glossy probe camera", data)
         scene.collection.objects.link(self.camera)
         scene.camera = self.camera
-        render.engine = self.engine
+        render.engine = render_engine(self.engine)
         render.resolution_x = render.resolution_y = self.size
         render.resolution_percentage = 100
         render.pixel_aspect_x = render.pixel_aspect_y = 1.0
@@ -82,8 +85,11 @@ class CubeCapture:
         settings.file_format = "OPEN_EXR"
         settings.color_depth = "32"
         settings.color_mode = "RGB"
+        settings.exr_codec = "ZIP"  # lossless, and what bake.exr_codec reads
         if self.engine == "CYCLES":
             scene.cycles.samples = self.samples
+            # A denoiser changes radiance (and may be missing from the build).
+            scene.cycles.use_denoising = False
         else:
             scene.eevee.taa_render_samples = self.samples
         for obj in self.hidden:
@@ -111,8 +117,11 @@ class CubeCapture:
         render.film_transparent = saved["film"]
         (render.image_settings.file_format, render.image_settings.color_depth,
          render.image_settings.color_mode) = saved["format"]
+        if render.image_settings.file_format == "OPEN_EXR":
+            render.image_settings.exr_codec = saved["codec"]
         if self.engine == "CYCLES":
             scene.cycles.samples = saved["samples"]
+            scene.cycles.use_denoising = saved["denoise"]
         else:
             scene.eevee.taa_render_samples = saved["samples"]
         for name, hidden in saved["hidden"]:

@@ -20,6 +20,17 @@ def environment_world(scene, image_path, name="world"):
     return node
 
 
+def eevee_engine() -> str:
+    """EEVEE's engine identifier in this Blender: ``BLENDER_EEVEE`` in 5.0,
+    ``BLENDER_EEVEE_NEXT`` in 4.2 - 4.5 (settings store the 5.0 name)."""
+    return "BLENDER_EEVEE" if bpy.app.version >= (5, 0, 0) else "BLENDER_EEVEE_NEXT"
+
+
+def render_engine(name: str) -> str:
+    """The identifier to assign to ``scene.render.engine`` for a stored engine name."""
+    return eevee_engine() if name.startswith("BLENDER_EEVEE") else name
+
+
 def float_exr_output(scene, width, height=None):
     """Render at width x height (100%) to 32-bit float EXR with the Standard view
     transform, so saved pixels are the scene-linear radiance."""
@@ -29,6 +40,7 @@ def float_exr_output(scene, width, height=None):
     render.resolution_percentage = 100
     render.image_settings.file_format = "OPEN_EXR"
     render.image_settings.color_depth = "32"
+    render.image_settings.exr_codec = "ZIP"  # lossless; bake.exr_codec reads it in Blender
     scene.view_settings.view_transform = "Standard"
 
 

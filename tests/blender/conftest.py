@@ -46,3 +46,38 @@ def extension_zip(tmp_path_factory):
     zips = list(out.glob("*.zip"))
     assert len(zips) == 1, zips
     return zips[0]
+
+
+@pytest.fixture(scope="session")
+def blender_executable():
+    """A real ``blender`` executable (4.2+): GLOSSY_BLENDER, else Debian trixie's
+    Blender 4.3 in a chroot that tools/debian_blender.py makes once (root only)."""
+    from tools import debian_blender
+
+    named = os.environ.get("GLOSSY_BLENDER")
+    if named:
+        if not os.access(named, os.X_OK):
+            pytest.fail(f"GLOSSY_BLENDER={named} is not an executable")
+        return Path(named)
+    if sys.platform != "linux" or os.geteuid() != 0:
+        pytest.skip("no blender executable: set GLOSSY_BLENDER, or run as root so that "
+                    "tools/debian_blender.py can make one")
+    try:
+        return debian_blender.provision(log=lambda line: print(line, file=sys.stderr))
+    except debian_blender.ProvisionError as error:
+        pytest.fail(f"could not set up Debian's Blender: {error}")
+
+
+def run_blender(executable, *args, user_dir, cwd=None, timeout=600, check=True):
+    """Run ``blender ARGS`` with BLENDER_USER_RESOURCES=user_dir; returns the
+    CompletedProcess (stdout and stderr together in .stdout)."""
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user_dir))
+    if "--python" in args or "--python-expr" in args:  # a script's exception fails the run
+        args = ("--python-exit-code", "1", *args)
+    process = subprocess.run([str(executable), *map(str, args)], cwd=cwd, env=env,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             timeout=timeout)
+    if check and process.returncode != 0:
+        pytest.fail(f"blender {' '.join(map(str, args))[:200]} failed "
+                    f"({process.returncode}):\n{process.stdout[-4000:]}")
+    return process

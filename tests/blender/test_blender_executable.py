@@ -1,0 +1,120 @@
+"""The README's headless pipeline in a real ``blender`` executable, with the
+extension installed from its zip into a temporary user directory.
+
+The executable is Debian trixie's Blender 4.3 (Python 3.13, NumPy 2) unless
+GLOSSY_BLENDER names another (conftest.blender_executable). Everything the
+pytest side checks is computed here, with this process's NumPy: the EEVEE
+render against bake.atlas.shade, and each baked atlas against a bake of the
+same probe by bake.prefilter.
+"""
+
+import json
+import os
+import re
+import subprocess
+
+import numpy as np
+import pytest
+
+from bake import atlas, exr, prefilter
+from tests.blender.conftest import SCRIPTS, run_blender
+from tests.blender.lookup_check import assert_matches_shade
+from tests.conftest import ROOT
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+
+
+def readme_pipeline() -> str:
+    """The README's fenced ``sh`` block of headless commands, verbatim."""
+    blocks = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    blocks = [block for block in blocks if "bpy.ops.glossy.capture_probes()" in block]
+    assert len(blocks) == 1, "README.md must hold one sh block with the pipeline"
+    return blocks[0]
+
+
+def run_readme(blender, folder, user, text):
+    """Run README shell text in ``folder`` with ``blender`` on PATH."""
+    bin_dir = folder / "bin"
+    bin_dir.mkdir(exist_ok=True)
+    link = bin_dir / "blender"
+    if not link.exists():
+        link.symlink_to(blender)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user),
+               PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    return subprocess.run(["sh", "-ec", text], cwd=folder, env=env, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=900)
+
+
+@pytest.fixture(scope="module")
+def installed(blender_executable, extension_zip, tmp_path_factory):
+    """A user directory with the zip installed and enabled by Blender's own CLI."""
+    user = tmp_path_factory.mktemp("blender_user")
+    out = run_blender(blender_executable, "--background", "--factory-startup", "--command",
+                      "extension", "install-file", "-r", "user_default", "-e", extension_zip,
+                      user_dir=user).stdout
+    assert 'Installed "glossy"' in out, out
+    assert "incompatible" not in out, out
+    return user
+
+
+def test_readme_pipeline_captures_bakes_attaches_and_eevee_matches(
+        blender_executable, installed, tmp_path):
+    run_blender(blender_executable, "--background", "--python", SCRIPTS / "binary_scene.py",
+                "--", tmp_path, user_dir=installed)
+    process = run_readme(blender_executable, tmp_path, installed, readme_pipeline())
+    out = process.stdout
+    assert process.returncode == 0, out[-4000:]
+    assert "Traceback" not in out and "Error:" not in out, out[-4000:]
+    # Background mode prints progress lines, ending at 100%.
+    assert re.search(r"Glossy: capture probes: \[100%\]", out), out[-2000:]
+    assert re.search(r"Glossy: bake materials: \[100%\]", out), out[-2000:]
+    written = sorted(p.name for p in (tmp_path / "glossy").iterdir())
+    assert "forest_cube256.exr" in written
+    assert {"Sphere_probe.exr", "Torus_probe.exr", "Sphere_Sphere_glossy_3d.exr",
+            "Sphere_Sphere_glossy_diffuse.exr", "Torus_Torus_glossy_2d.exr"} <= set(written)
+    assert not [name for name in written if "tmp" in name], written
+
+    # The saved, attached scene opened again, rendered by EEVEE in the executable.
+    run_blender(blender_executable, "--background", tmp_path / "scene.blend", "--python",
+                SCRIPTS / "binary_views.py", "--", tmp_path, user_dir=installed)
+    views = json.loads((tmp_path / "views.json").read_text())
+    assert views["node_groups"] == {"Glossy Slice Blend v1": 3, "Glossy Atlas Taps v1": 7}
+    for name, maps in views["atlases"].items():
+        # Symmetric meshes: the volume centroid is the origin (float32 mesh data).
+        np.testing.assert_allclose(maps["centre"], maps["origin"], atol=1e-5, err_msg=name)
+    assert_matches_shade(tmp_path)
+
+    # The executable's bake (NumPy 2, Python 3.13) equals this process's bake of
+    # the same probe: same algorithm, float32 storage; FFT and summation order
+    # differ between NumPy versions at ~1e-6 of the peak.
+    for name, maps in views["atlases"].items():
+        probe, meta = exr.read(maps["probe"])
+        settings = maps["bake"]
+        baked = prefilter.prefilter(probe, settings["spec"], settings["method"],
+                                    settings["size"], slices=settings["slices"],
+                                    lobes_count=settings["lobes"], layout=meta["layout"])
+        expected, _ = atlas.pack(baked)
+        got, _ = exr.read(maps["glossy"])
+        assert got.shape == expected.shape, name
+        assert np.abs(got - expected).max() <= 1e-4 * np.abs(expected).max(), name
+
+
+def test_pipeline_error_exits_non_zero_and_saves_nothing(blender_executable, installed,
+                                                         tmp_path):
+    # Blender's default scene: the Cube, selected and active, with its material removed.
+    run_blender(blender_executable, "--background", "--python-expr",
+                "import bpy; cube = bpy.data.objects['Cube']; cube.data.materials.clear(); "
+                "cube.glossy.probe_resolution = 8; cube.glossy.capture_samples = 1; "
+                f"bpy.ops.wm.save_as_mainfile(filepath={str(tmp_path / 'scene.blend')!r})",
+                user_dir=installed)
+    before = (tmp_path / "scene.blend").read_bytes()
+    commands = readme_pipeline().split("blender --background")
+    process = run_readme(blender_executable, tmp_path, installed,
+                         "blender --background" + commands[-1])
+    assert process.returncode != 0
+    # The operator's poll message reaches the script's error, and Blender
+    # stops the script with a non-zero exit (--python-exit-code 1).
+    assert "poll() The object has no material" in process.stdout, process.stdout[-3000:]
+    assert "Error: script failed" in process.stdout
+    assert (tmp_path / "scene.blend").read_bytes() == before  # not saved
+    assert [p.name for p in (tmp_path / "glossy").iterdir()] == ["Cube_probe.exr"]
