@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -66,6 +67,23 @@ def blender_executable():
         return debian_blender.provision(log=lambda line: print(line, file=sys.stderr))
     except debian_blender.ProvisionError as error:
         pytest.fail(f"could not set up Debian's Blender: {error}")
+
+
+@pytest.fixture(scope="session")
+def live_blender(blender_executable):
+    """The same Blender with a real window: the chroot's xvfb-blender wrapper,
+    or ``xvfb-run -a`` around GLOSSY_BLENDER."""
+    beside = blender_executable.parent / "xvfb-blender"
+    if beside.exists() and not os.environ.get("GLOSSY_BLENDER"):
+        return beside
+    import shutil
+
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("a live window needs xvfb-run next to GLOSSY_BLENDER")
+    wrapper = Path(tempfile.mkdtemp(prefix="glossy_xvfb_")) / "xvfb-blender"
+    wrapper.write_text(f'#!/bin/sh\nexec xvfb-run -a "{blender_executable}" "$@"\n')
+    wrapper.chmod(0o755)
+    return wrapper
 
 
 def run_blender(executable, *args, user_dir, cwd=None, timeout=600, check=True):

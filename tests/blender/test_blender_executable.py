@@ -12,6 +12,7 @@ import json
 import os
 import re
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -118,3 +119,36 @@ def test_pipeline_error_exits_non_zero_and_saves_nothing(blender_executable, ins
     assert "Error: script failed" in process.stdout
     assert (tmp_path / "scene.blend").read_bytes() == before  # not saved
     assert [p.name for p in (tmp_path / "glossy").iterdir()] == ["Cube_probe.exr"]
+
+
+def test_escape_in_a_live_window_cancels_and_keeps_blender_working(live_blender, installed,
+                                                                   tmp_path):
+    run_blender(live_blender, "--enable-event-simulate", "--python",
+                SCRIPTS / "live_escape.py", "--", tmp_path, tmp_path / "r.json",
+                user_dir=installed)
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r.get("ok"), r.get("error")
+    assert r["background"] is False  # a real window, not background mode
+    assert r["capture_invoke"] == r["bake_invoke"] == ["RUNNING_MODAL"]
+    # Esc after the second face: no more faces, no probe, no file.
+    cancel = r["capture_cancel"]
+    assert 2 <= cancel["faces_rendered"] < 6, cancel
+    assert cancel["probe_path"] == "" and cancel["files"] == []
+    assert r["capture_done"]["faces_rendered"] == 6
+    assert r["capture_done"]["files"] == ["Cube_probe.exr"]
+    # Esc after the first of three materials: that one whole, the rest untouched.
+    cancel = r["bake_cancel"]
+    assert cancel["baked"][0] and not all(cancel["baked"]), cancel
+    baked = [Path(p).name for p in cancel["bake_paths"] if p]
+    assert cancel["files"] == sorted(["Cube_probe.exr", *baked])  # no partial files
+    for path in cancel["bake_paths"]:
+        if path:
+            image, meta = exr.read(path)  # complete and readable
+            assert image.shape[0] > 0 and meta["material"].startswith("M")
+    assert r["bake_done"]["files"] == ["Cube_M0_3d.exr", "Cube_M1_3d.exr", "Cube_M2_3d.exr",
+                                       "Cube_probe.exr"]
+    # The status bar's reports, as the Info editor lists them.
+    reports = r["reports"]
+    assert "Probe capture cancelled; no unfinished probe was written" in reports
+    assert any(line.startswith("Bake cancelled after") for line in reports)
+    assert "Glossy captured 1 probe(s)" in reports
