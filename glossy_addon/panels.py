@@ -53,7 +53,9 @@ class GLOSSY_PT_probe(bpy.types.Panel):
             column.prop(settings, "clip_start")
             column.prop(settings, "clip_end")
             column.prop(settings, "hide_self")
-        layout.operator("glossy.capture_probes", icon="RENDER_STILL")
+        row = layout.row(align=True)
+        row.operator("glossy.capture_probes", icon="RENDER_STILL")
+        row.operator("glossy.clear", icon="TRASH")
         if settings.probe_path:
             layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
 
@@ -99,6 +101,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("glossy.bake_materials", icon="RENDER_RESULT")
         row.operator("glossy.attach_materials", icon="NODETREE")
+        if settings.original is not None:
+            layout.label(text=f"Original kept as '{settings.original.name}'", icon="MATERIAL")
 
 
 classes = (GLOSSY_PT_environment, GLOSSY_PT_probe, GLOSSY_PT_material)

@@ -134,6 +134,10 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_time: bpy.props.FloatProperty(name="Bake Time")
+    original: bpy.props.PointerProperty(
+        type=bpy.types.Material, name="Original Material",
+        description="The material as it was before Glossy attached its lookup "
+                    "(kept with a fake user; Clear puts it back)")
 
     def brdf_spec(self) -> str:
         color = "/".join(f"{c:g}" for c in self.color)

@@ -8,6 +8,7 @@ import numpy as np
 from ..bake import atlas, exr, prefilter
 from ..bake.errors import BakeError
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
+from ..glossy_addon.materials import stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import check_may_write, output_folder
@@ -162,6 +163,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if material.glossy.diffuse_path:
                     _, diffuse_meta = exr.read(material.glossy.diffuse_path)
                     diffuse = (load_atlas(material.glossy.diffuse_path), diffuse_meta)
+                stash_original(material)
                 build_lookup(material, load_atlas(path), meta, diffuse,
                              material.glossy.fresnel_ior)
                 attached += 1

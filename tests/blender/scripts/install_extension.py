@@ -16,7 +16,7 @@ from _installed import MODULE, install  # first: hides the venv's OpenEXR
 import bpy
 
 OPERATORS = ("GLOSSY_OT_export_environment", "GLOSSY_OT_capture_probes",
-             "GLOSSY_OT_bake_materials", "GLOSSY_OT_attach_materials")
+             "GLOSSY_OT_bake_materials", "GLOSSY_OT_attach_materials", "GLOSSY_OT_clear")
 PANELS = ("GLOSSY_PT_environment", "GLOSSY_PT_probe", "GLOSSY_PT_material")
 
 
