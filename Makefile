@@ -17,6 +17,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(PY) tools/debian_blender.py provision --if-possible
 	$(PY) -m pytest
 
 lint: $(STAMP)
@@ -31,4 +32,4 @@ bench: $(STAMP)
 	$(PY) benchmarks/prefilter.py
 
 clean:
-	rm -rf build out wheels .pytest_cache .ruff_cache
+	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot
