@@ -152,3 +152,7 @@ def test_escape_in_a_live_window_cancels_and_keeps_blender_working(live_blender,
     assert "Probe capture cancelled; no unfinished probe was written" in reports
     assert any(line.startswith("Bake cancelled after") for line in reports)
     assert "Glossy captured 1 probe(s)" in reports
+    # The three panels drew in the window (sidebar tab and Material properties).
+    assert r["panels_drawn"] == ["GLOSSY_PT_environment", "GLOSSY_PT_material",
+                                 "GLOSSY_PT_probe"]
+    assert r["panel_errors"] == []

@@ -112,6 +112,40 @@ def scenario():
         bpy.ops.info.report_copy()
     report["reports"] = bpy.context.window_manager.clipboard.splitlines()
 
+    # 5. The panels as a user sees them: the Glossy sidebar tab in the 3D
+    # viewport and Glossy in Material properties, drawn by the window (each
+    # panel class is re-registered with its draw wrapped to record that it ran
+    # and what it raised).
+    drawn, failed = set(), []
+
+    def recording(name, original):
+        def draw(self, context):
+            try:
+                original(self, context)
+                drawn.add(name)
+            except Exception:
+                failed.append(traceback.format_exc())
+                raise
+        return draw
+
+    for name in ("GLOSSY_PT_environment", "GLOSSY_PT_probe", "GLOSSY_PT_material"):
+        cls = getattr(bpy.types, name)
+        bpy.utils.unregister_class(cls)
+        cls.draw = recording(name, cls.draw)
+        bpy.utils.register_class(cls)
+    area.type = "VIEW_3D"
+    properties = next(a for a in window.screen.areas if a.type == "PROPERTIES")
+    properties.spaces.active.context = "MATERIAL"
+    area.spaces.active.show_region_ui = True
+    yield 0.2
+    next(r for r in area.regions if r.type == "UI").active_panel_category = "Glossy"
+    for _ in range(3):
+        for each in (area, properties):
+            each.tag_redraw()
+        yield 0.3
+    report["panels_drawn"] = sorted(drawn)
+    report["panel_errors"] = failed
+
 
 steps = scenario()
 
