@@ -20,17 +20,9 @@ import pytest
 from bake import atlas, exr, prefilter
 from tests.blender.conftest import SCRIPTS, run_blender
 from tests.blender.lookup_check import assert_matches_shade
-from tests.conftest import ROOT
+from tests.blender.readme import pipeline_block
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
-
-
-def readme_pipeline() -> str:
-    """The README's fenced ``sh`` block of headless commands, verbatim."""
-    blocks = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
-    blocks = [block for block in blocks if "bpy.ops.glossy.capture_probes()" in block]
-    assert len(blocks) == 1, "README.md must hold one sh block with the pipeline"
-    return blocks[0]
 
 
 def run_readme(blender, folder, user, text):
@@ -62,7 +54,7 @@ def test_readme_pipeline_captures_bakes_attaches_and_eevee_matches(
         blender_executable, installed, tmp_path):
     run_blender(blender_executable, "--background", "--python", SCRIPTS / "binary_scene.py",
                 "--", tmp_path, user_dir=installed)
-    process = run_readme(blender_executable, tmp_path, installed, readme_pipeline())
+    process = run_readme(blender_executable, tmp_path, installed, pipeline_block())
     out = process.stdout
     assert process.returncode == 0, out[-4000:]
     assert "Traceback" not in out and "Error:" not in out, out[-4000:]
@@ -109,7 +101,7 @@ def test_pipeline_error_exits_non_zero_and_saves_nothing(blender_executable, ins
                 f"bpy.ops.wm.save_as_mainfile(filepath={str(tmp_path / 'scene.blend')!r})",
                 user_dir=installed)
     before = (tmp_path / "scene.blend").read_bytes()
-    commands = readme_pipeline().split("blender --background")
+    commands = pipeline_block().split("blender --background")
     process = run_readme(blender_executable, tmp_path, installed,
                          "blender --background" + commands[-1])
     assert process.returncode != 0
