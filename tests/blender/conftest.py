@@ -66,6 +66,8 @@ def blender_executable():
     try:
         return debian_blender.provision(log=lambda line: print(line, file=sys.stderr))
     except debian_blender.ProvisionError as error:
+        if error.unprivileged:  # this machine forbids chroot / mount namespaces
+            pytest.skip(f"no blender executable: {error}")
         pytest.fail(f"could not set up Debian's Blender: {error}")
 
 
