@@ -101,3 +101,15 @@ def run_blender(executable, *args, user_dir, cwd=None, timeout=600, check=True):
         pytest.fail(f"blender {' '.join(map(str, args))[:200]} failed "
                     f"({process.returncode}):\n{process.stdout[-4000:]}")
     return process
+
+
+@pytest.fixture(scope="session")
+def installed(blender_executable, extension_zip, tmp_path_factory):
+    """A user directory with the zip installed and enabled by Blender's own CLI."""
+    user = tmp_path_factory.mktemp("blender_user")
+    out = run_blender(blender_executable, "--background", "--factory-startup", "--command",
+                      "extension", "install-file", "-r", "user_default", "-e", extension_zip,
+                      user_dir=user).stdout
+    assert 'Installed "glossy"' in out, out
+    assert "incompatible" not in out, out
+    return user

@@ -38,18 +38,6 @@ def run_readme(blender, folder, user, text):
                           stderr=subprocess.STDOUT, text=True, timeout=900)
 
 
-@pytest.fixture(scope="module")
-def installed(blender_executable, extension_zip, tmp_path_factory):
-    """A user directory with the zip installed and enabled by Blender's own CLI."""
-    user = tmp_path_factory.mktemp("blender_user")
-    out = run_blender(blender_executable, "--background", "--factory-startup", "--command",
-                      "extension", "install-file", "-r", "user_default", "-e", extension_zip,
-                      user_dir=user).stdout
-    assert 'Installed "glossy"' in out, out
-    assert "incompatible" not in out, out
-    return user
-
-
 def test_readme_pipeline_captures_bakes_attaches_and_eevee_matches(
         blender_executable, installed, tmp_path):
     run_blender(blender_executable, "--background", "--python", SCRIPTS / "binary_scene.py",
