@@ -22,7 +22,7 @@ def eevee_engine():
 def build(scenes_module, hdri, probe_resolution=32):
     """A sphere (GGX 0.3, two lobes, a Fresnel-blended diffuse part) and a torus
     (Ward 0.15, 2D lobe) over a plane, lit by ``hdri``, an orthographic camera;
-    both objects selected. ``scenes_module`` is glossy_addon.scenes."""
+    both objects and the camera selected. ``scenes_module`` is glossy_addon.scenes."""
     scene = bpy.context.scene
     scene.view_settings.view_transform = "Standard"
     scene.cycles.device = "CPU"
@@ -59,6 +59,7 @@ def build(scenes_module, hdri, probe_resolution=32):
     bpy.ops.object.select_all(action="DESELECT")
     sphere.select_set(True)
     torus.select_set(True)
+    camera.select_set(True)  # a selection that is not all meshes, as a user's often is
     bpy.context.view_layer.objects.active = sphere
     return sphere, torus
 
