@@ -30,6 +30,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/envmap.py
 	$(PY) benchmarks/brdf.py
 	$(PY) benchmarks/prefilter.py
+	$(PY) benchmarks/exr_codec.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot

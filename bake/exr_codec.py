@@ -122,9 +122,9 @@ def _unpredict_deinterleave(buffer: np.ndarray) -> bytes:
     + 128) and the split into even and odd bytes."""
     if buffer.size == 0:
         return b""
-    deltas = buffer.astype(np.int64)
-    deltas[1:] -= 128
-    raw = (np.cumsum(deltas) & 0xFF).astype(np.uint8)
+    deltas = buffer.copy()
+    deltas[1:] -= np.uint8(128)  # uint8 arithmetic wraps modulo 256, as the format does
+    raw = np.cumsum(deltas, dtype=np.uint8)
     out = np.empty_like(raw)
     half = (raw.size + 1) // 2
     out[0::2] = raw[:half]
@@ -266,7 +266,7 @@ def encode(planes: dict, attributes: dict | None = None, compression: str = "zip
             records[name] = array[first:first + count]
         raw = records.tobytes()
         if code == 3:
-            packed = zlib.compress(_interleave_predict(raw), 6)
+            packed = zlib.compress(_interleave_predict(raw), 4)  # OpenEXR's default level
             if len(packed) < len(raw):
                 raw = packed
         chunks.append(struct.pack("<ii", first, len(raw)) + raw)
