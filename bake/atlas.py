@@ -92,27 +92,20 @@ def pack_split_sum(baked, slices=33):
 
     if baked.mode != "split-sum":
         raise BakeError("pack_split_sum needs a split-sum map")
-    levels = baked.meta["roughness_levels"]
-    roughness = baked.meta["material_roughness"]
-    x = float(np.interp(roughness, levels, np.arange(len(levels))))
-    l0 = int(np.floor(x))
-    l1 = min(l0 + 1, len(levels) - 1)
-    t = x - l0
-    face = baked.layers[f"level{l0}"].shape[0]
+    from .prefilter import BakedMap, split_sum_level_weights
+
+    blend = split_sum_level_weights(baked.meta)
+    face = baked.layers[blend[0][0]].shape[0]
     shape = get_layout("latlong").shape(max(2 * face, slices))
     directions = get_layout("latlong").texel_directions(shape)
     cube = get_layout("cube")
-    image = (1 - t) * cube.sampler(baked.layers[f"level{l0}"])(directions)
-    if t > 0:
-        image = image + t * cube.sampler(baked.layers[f"level{l1}"])(directions)
+    image = sum(weight * cube.sampler(baked.layers[name])(directions) for name, weight in blend)
     mus = slice_nodes(slices)
     normal = np.array([0.0, 0.0, 1.0])
     views = np.stack([np.sqrt(1 - mus**2), np.zeros_like(mus), mus], -1)
     # k(theta_o): the DFG factor alone, i.e. shade() of a map that is 1 everywhere.
     ones = {name: np.ones_like(layer) for name, layer in baked.layers.items() if name != "dfg"}
     ones["dfg"] = baked.layers["dfg"]
-    from .prefilter import BakedMap
-
     weights = BakedMap("split-sum", ones, baked.meta).shade(normal, views)
     stand_in = BakedMap("2d", {"": image.astype(np.float32)},
                         {"slices": slices, "offsets": [[0.0] for _ in mus],

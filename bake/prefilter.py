@@ -55,6 +55,20 @@ MAX_SIZE = 2048
 FORMAT = 1
 
 
+def split_sum_level_weights(meta: dict) -> list[tuple[str, float]]:
+    """The split-sum MIP levels to blend at ``meta["material_roughness"]``:
+    [("level<k>", weight)], the two levels around it in
+    ``meta["roughness_levels"]``, linear in level index (one level when exact)."""
+    levels = meta["roughness_levels"]
+    x = float(np.interp(meta["material_roughness"], levels, np.arange(len(levels))))
+    l0 = int(math.floor(x))
+    t = x - l0
+    weights = [(f"level{l0}", 1.0 - t)]
+    if t > 0:
+        weights.append((f"level{min(l0 + 1, len(levels) - 1)}", t))
+    return weights
+
+
 def _check_probe(image, layout):
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] < 3:
@@ -303,15 +317,9 @@ class BakedMap:
         return out
 
     def _shade_split_sum(self, mu, r):
-        levels = self.meta["roughness_levels"]
         roughness = self.meta["material_roughness"]
-        x = float(np.interp(roughness, levels, np.arange(len(levels))))
-        l0 = int(math.floor(x))
-        l1 = min(l0 + 1, len(levels) - 1)
-        t = x - l0
-        value = (1 - t) * self._sampler(f"level{l0}", "cube")(r)
-        if t > 0:
-            value = value + t * self._sampler(f"level{l1}", "cube")(r)
+        value = sum(weight * self._sampler(name, "cube")(r)
+                    for name, weight in split_sum_level_weights(self.meta))
         dfg = self.layers["dfg"]
         size = dfg.shape[0]
         row = np.clip((1.0 - mu) * size - 0.5, 0, size - 1)  # top row is mu = 1
