@@ -32,6 +32,7 @@ the true one over 4096 cosine-distributed directions (Kautz & McCool 1999,
 section 5.2), absolute and relative to the RMS of the BRDF.
 """
 
+import copy
 import itertools
 import json
 from dataclasses import asdict, dataclass, field
@@ -172,18 +173,27 @@ def _slice_luminance(model, wo, wi):
 
 
 def _peak(function, wo):
-    """Signed elevation t* maximizing function on the incidence plane (x-z)."""
+    """Signed elevation t* maximizing function on the incidence plane (x-z).
+
+    A 4001-point scan brackets the maximum within one cell; three rounds of
+    65-point scans then each shrink the bracket 32-fold (to about 2e-8 rad),
+    vectorized: 4 calls of ``function`` instead of a golden-section loop's 80.
+    """
+    def plane(t):
+        return function(np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], -1))
+
     t = np.linspace(-np.pi / 2, np.pi / 2, 4001)
-    values = function(np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], -1))
+    values = plane(t)
     best = int(np.argmax(values))
+    peak = float(values.max())
     low, high = t[max(best - 1, 0)], t[min(best + 1, t.size - 1)]
-    golden = (np.sqrt(5.0) - 1.0) / 2.0
-    for _ in range(40):  # golden-section refinement inside the bracketing cell
-        a = high - golden * (high - low)
-        b = low + golden * (high - low)
-        va, vb = (function(np.array([[np.sin(x), 0.0, np.cos(x)]]))[0] for x in (a, b))
-        low, high = (low, b) if va >= vb else (a, high)
-    return 0.5 * (low + high), float(values.max())
+    for _ in range(3):
+        grid = np.linspace(low, high, 65)
+        scan = plane(grid)
+        best = int(np.argmax(scan))
+        peak = max(peak, float(scan[best]))
+        low, high = grid[max(best - 1, 0)], grid[min(best + 1, grid.size - 1)]
+    return 0.5 * (low + high), peak
 
 
 def _profiles(function, centre):
@@ -348,12 +358,31 @@ def _cluster(slices):
         current.lobes = list(best)
 
 
+#: Fits made in this process, by (canonical spec, slices, lobes, mode): a fit is a
+#: pure function of those, so materials re-baked in one session refit nothing.
+_CACHE: dict = {}
+_CACHE_SIZE = 64
+
+
 def fit(model, slices: int = 16, lobes: int = 1, mode: str = "3d", progress=None) -> Fit:
     """Fit ``model`` (BRDF or spec) with ``lobes`` lobes at ``slices`` view elevations.
 
     mode: ``3d`` (a lobe shape per slice) or ``2d`` (one shared shape + k(theta_o)).
+    Results are cached in-process (a copy is returned, so callers may change it).
     """
     model = parse(model) if not isinstance(model, BRDF) else model
+    key = (model.spec, model.spec_hash(), slices, lobes, mode)
+    if key in _CACHE:
+        report(progress, 1.0, "lobe fit (cached)")
+        return copy.deepcopy(_CACHE[key])
+    result = _fit(model, slices, lobes, mode, progress)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = copy.deepcopy(result)
+    return result
+
+
+def _fit(model, slices, lobes, mode, progress):
     if not model.isotropic:
         raise BakeError(f"{model.spec}: lobe fitting needs an isotropic BRDF")
     if mode not in ("3d", "2d"):

@@ -35,12 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, exr, lobes, sh
+from . import __version__, exr, lobes, resolution, sh
 from .brdf import BRDF, parse
 from .brdf.microfacet import ggx_d
-from .envmap import convert, get_layout
+from .envmap import get_layout
 from .errors import BakeError
-from .progress import report, scaled
+from .probe_maps import latlong_detail_rows, probe_maps, resample_rows
+from .progress import report
 from .zonal import suggested_supersample, zonal_convolve
 
 __all__ = ["MODES", "PRESETS", "prefilter", "load", "BakedMap", "split_sum_kernel", "dfg_table"]
@@ -108,26 +109,85 @@ def _half_width(kernel):
     return float(gamma[below[0]]) if below.size else np.pi
 
 
-def _filter(work, kernel, progress=None):
-    """Zonal convolution of the working lat-long map (H, 2H, 3) -> (H, 2H, 3).
+def _kernel_half_width(kernel):
+    """HWHM (rad) of a kernel, resolved finely near gamma = 0 (the lobes' node grid)."""
+    return resolution.lobe_half_width(lobes.GAMMA, kernel(np.cos(lobes.GAMMA)))
 
-    A kernel much narrower than the sphere is split into a *core*, kept within
-    6x its half width (tapered to 0 by 12x), filtered at the working
-    resolution over the band of rows it reaches, and a *tail* (heavy GGX
-    tails reach across the sphere), which is smooth on the scale of the core
-    and so is filtered on a coarse copy of the map and interpolated back.
-    Each part is normalized to its own exact integral, so the sum keeps the
-    kernel's energy exactly (a constant map stays its constant).
+
+#: The finest tier's radius in texels of its grid and in lobe widths (at least
+#: both); sub-sampling reaches SUPERSAMPLE_HALF_WIDTHS widths (plus 2 texels).
+CORE_TEXELS = 8.0
+CORE_HALF_WIDTHS = 2.0
+SUPERSAMPLE_HALF_WIDTHS = 4.0
+#: Lobes narrower than this fraction of a working texel are filtered as an
+#: equal-energy Gaussian of a quarter texel; sub-samples per texel side are
+#: at most MAX_SUPERSAMPLE (the kernel is integrated over input texels).
+SUBTEXEL_FRACTION = 0.25
+MAX_SUPERSAMPLE = 4
+
+
+#: Texels per lobe width of the grid a lobe is filtered on, when that is coarser than
+#: the map (then interpolated up): twice the map rule's density, so that the
+#: interpolation adds about 0.1% (the map rule's own 3 texels add about 1%).
+FILTER_TEXELS_PER_HALF_WIDTH = 2 * resolution.TEXELS_PER_HALF_WIDTH
+
+
+def filter_rows(half_width, rows):
+    """Rows at which a lobe of this width (rad, bake.resolution.lobe_half_width) is
+    filtered for a map of ``rows`` rows: FILTER_TEXELS_PER_HALF_WIDTH texels per width,
+    rounded up to a multiple of 8, never more than ``rows``."""
+    needed = math.ceil(FILTER_TEXELS_PER_HALF_WIDTH * math.pi / max(half_width, 1e-9))
+    return int(min(rows, max(resolution.MIN_ROWS, math.ceil(needed / 8.0) * 8)))
+
+
+def _taper(radius):
+    """Window of cos(gamma): 1 within ``radius``, 0 beyond twice it, a raised cosine between."""
+    def window(cos_gamma):
+        gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
+        x = np.clip((gamma - radius) / radius, 0.0, 1.0)
+        return 0.5 * (1.0 + np.cos(np.pi * x))
+
+    return window
+
+
+def _tier_piece(kernel, inner, outer):
+    """kernel times (outer window - inner window); a missing window counts as 0
+    (inner) or 1 (outer)."""
+    def piece(cos_gamma):
+        weight = 1.0 if outer is None else outer(cos_gamma)
+        if inner is not None:
+            weight = weight - inner(cos_gamma)
+        return kernel(cos_gamma) * weight
+
+    return piece
+
+
+def _filter(maps, kernel, rows, half=None):
+    """Zonal convolution of the probe with ``kernel``: a (rows, 2 rows, 3) lat-long map.
+
+    maps: the probe's shared ProbeMaps. Multi-scale: the kernel is cut by
+    raised-cosine windows at radii R, 2R, 4R, ... into a disc and annuli;
+    tier t (the annulus from 2^(t-1) R to 2^(t+1) R) is filtered on a grid
+    of rows / 2^t rows, over only the rows and longitudes it reaches, so
+    every tier spans the same number of its own texels and the total cost
+    is about 4/3 of the finest tier's, whatever the kernel's width or the
+    length of its tail (heavy GGX tails reach across the sphere). The finest
+    grid has the rows the lobe needs (:func:`filter_rows`), at most ``rows``;
+    R = max(2 lobe widths, 8 texels), so each window's taper spans at least
+    4 texels of the grid it is filtered on. Each piece is normalized to its
+    own exact integral, so the sum keeps the kernel's energy exactly (a
+    constant map stays its constant). Near each output direction (within 4
+    lobe widths and 2 texels) the kernel is integrated over input texels
+    with up to 4 x 4 sub-samples; a lobe narrower than a quarter texel is
+    replaced by an equal-energy Gaussian of a quarter texel.
     """
-    height = work.shape[0]
-    texel = np.pi / height
-    half = _half_width(kernel)
-    if half < 0.25 * texel / 8:
-        # Narrower than the finest sub-texel spacing: below the map's
-        # resolution the lobe's shape cannot matter, only its energy. Use a
-        # Gaussian of a quarter texel carrying the same integral.
-        from .zonal import kernel_integral
+    from .zonal import kernel_integral
 
+    half = _kernel_half_width(kernel) if half is None else half
+    work_rows = filter_rows(half, rows)
+    texel = np.pi / work_rows
+    if half < SUBTEXEL_FRACTION * texel:
+        # Below what the map can show only the lobe's energy and centre matter.
         energy = kernel_integral(kernel)
         sigma = 0.25 * texel
 
@@ -135,46 +195,26 @@ def _filter(work, kernel, progress=None):
             gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
             return energy * np.exp(-0.5 * (gamma / sigma) ** 2) / (2 * np.pi * sigma**2)
 
-        half = _half_width(kernel)
-    supersample = suggested_supersample(half, texel)
-    core_radius = 6.0 * half
-    coarse_rows = int(np.clip(math.ceil(4.0 * np.pi / core_radius), 32, height))
-    if core_radius >= np.pi / 2 or coarse_rows >= height:
-        return zonal_convolve(work, kernel, supersample=supersample, progress=progress)
-
-    def window(cos_gamma):
-        gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
-        x = np.clip((gamma - core_radius) / core_radius, 0.0, 1.0)
-        return 0.5 * (1.0 + np.cos(np.pi * x))
-
-    def core(cos_gamma):
-        return kernel(cos_gamma) * window(cos_gamma)
-
-    def tail(cos_gamma):
-        return kernel(cos_gamma) * (1.0 - window(cos_gamma))
-
-    result = zonal_convolve(work, core, supersample=supersample,
-                            progress=scaled(progress, 0.0, 0.7))
-    coarse = convert(work, "latlong", "latlong", coarse_rows)
-    tail_map = zonal_convolve(coarse, tail, progress=scaled(progress, 0.7, 1.0))
-    centres = get_layout("latlong").texel_directions(work.shape[:2])
-    result = result + get_layout("latlong").sampler(tail_map)(centres).astype(np.float32)
-    return result.astype(np.float32)
-
-
-def _working_rows(kernel, minimum, probe_rows, cap=1024):
-    """Lat-long rows for filtering: >= minimum, and fine enough that the kernel's
-    half width spans about 2 texels, but no finer than 3x the probe's resolution."""
-    width = _half_width(kernel)
-    wanted = math.ceil(3.0 * np.pi / max(width, 1e-6))
-    return int(min(max(minimum, wanted), max(minimum, 3 * probe_rows), cap))
-
-
-def _probe_rows(image, layout):
-    """Lat-long rows with about the probe's angular resolution."""
-    if layout == "cube":
-        return int(math.ceil(image.shape[0] * 1.5))  # cube texels: 2/N rad at face centres
-    return image.shape[0]
+        half = _kernel_half_width(kernel)
+    supersample = min(suggested_supersample(half, texel), MAX_SUPERSAMPLE)
+    near = SUPERSAMPLE_HALF_WIDTHS * half + 2.0 * texel
+    radius = max(CORE_HALF_WIDTHS * half, CORE_TEXELS * texel)
+    result = np.zeros((rows, 2 * rows, 3), np.float32)
+    inner = None  # the previous tier's window
+    tier_rows = work_rows
+    while True:
+        outer = _taper(radius)
+        last = radius >= np.pi / 2 or tier_rows // 2 < resolution.MIN_ROWS
+        piece = _tier_piece(kernel, inner, None if last else outer)
+        finest = inner is None
+        filtered = zonal_convolve(maps.latlong(tier_rows), piece,
+                                  supersample=supersample if finest else 1,
+                                  supersample_radius=near if finest else None,
+                                  spectrum=maps.spectrum(tier_rows))
+        result += resample_rows(filtered, rows)
+        if last:
+            return result
+        inner, radius, tier_rows = outer, 2.0 * radius, tier_rows // 2
 
 
 def view_frame(normal, view):
@@ -369,71 +409,172 @@ def _base_meta(mode, model, probe_layout, probe_shape, size):
             "size": size, "probe": {"layout": probe_layout, "shape": list(probe_shape[:2])}}
 
 
+#: Bytes of memory a bake may plan to use, as a fraction of what is available.
+MEMORY_FRACTION = 0.8
+#: Largest value a 16-bit float holds; maps brighter than this stay 32-bit.
+HALF_MAX = 65504.0
+
+
+def available_memory() -> int:
+    """Bytes of memory available to this process now (MemAvailable; else total RAM)."""
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 1 << 34
+
+
+def bake_memory(rows: int, layers: int) -> int:
+    """Bytes a bake of ``layers`` maps of (rows, 2 rows, 3) float32 needs at its peak:
+    the layers, the atlas they pack into, and per filtering thread a working
+    map, its spectrum and the kernel chunk (bounded by zonal's chunk size)."""
+    layer = rows * 2 * rows * 3 * 4
+    per_thread = 4 * layer + (1 << 27)
+    return 2 * layers * layer + 2 * per_thread
+
+
+def check_memory(rows: int, layers: int, what: str = "map"):
+    """Raise BakeError, before anything is allocated, when a bake cannot fit in memory."""
+    need = bake_memory(rows, layers)
+    have = available_memory()
+    if need > MEMORY_FRACTION * have:
+        raise BakeError(f"a {what} of {layers} layer(s) at {rows}x{2 * rows} texels needs about "
+                        f"{need / 2**30:.1f} GiB; {have / 2**30:.1f} GiB is available: "
+                        f"use a smaller size or fewer slices/lobes")
+
+
+def _resolve_size(size, max_size, half_widths, image, probe_layout):
+    """(rows, reason) from size = an int or "auto" (then max_size bounds it)."""
+    if size in (None, "auto"):
+        if max_size is not None:
+            max_size = _check_size(max_size, "max_size")
+        choice = resolution.choose_map_rows(half_widths, image.shape, probe_layout, max_size)
+        return choice.value, choice.reason
+    size = _check_size(size)
+    return size, f"{size} rows: set by hand"
+
+
 def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
               layout=None, levels=None, preset="khronos", method="direct", dfg=True,
-              progress=None):
+              max_size=None, progress=None):
     """Prefilter a probe (cube strip or lat-long (H, W, 3)) for a BRDF; returns a BakedMap.
 
     size: lat-long output height N (maps are N x 2N), or the base cube face for
-    ``split-sum``. slices / lobes_count: the lobe fit (3d, 2d, phong tables).
+    ``split-sum``; ``"auto"`` (3d, 2d, phong, irradiance) chooses N from the
+    lobes' widths and the probe's detail (bake.resolution), at most
+    ``max_size``; the choice and its reason are in ``meta["size_reason"]``.
+    slices / lobes_count: the lobe fit (3d, 2d, phong tables).
     levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes).
     method: ``direct`` or ``sh`` (irradiance). dfg: include the split-sum DFG table.
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
+    progress(fraction, message) is called after the fit and after every slice.
+    """
+    steps = prefilter_steps(image, model_or_fit, mode, size, slices=slices,
+                            lobes_count=lobes_count, layout=layout, levels=levels,
+                            preset=preset, method=method, dfg=dfg, max_size=max_size)
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        report(progress, fraction, message)
+
+
+def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
+                    layout=None, levels=None, preset="khronos", method="direct", dfg=True,
+                    max_size=None, threads=None):
+    """:func:`prefilter` as a generator: yields (fraction, message) after each step (the
+    fit, each pair of slices filtered on two threads) and returns the BakedMap.
+
+    Each step is a fraction of a second for the maps Auto chooses, so a
+    caller that runs one step per UI timer tick stays responsive and can stop
+    between steps (nothing has been written until the caller writes the map).
+    Bad arguments raise BakeError before the first step.
     """
     if mode not in MODES:
         raise BakeError(f"unknown mode {mode!r} (use one of: {', '.join(MODES)})")
     image, probe_layout = _check_probe(image, layout)
-    size = _check_size(size)
+    if size not in (None, "auto"):
+        size = _check_size(size)
     fit = model_or_fit if isinstance(model_or_fit, lobes.Fit) else None
     model = parse(fit.spec) if fit else (model_or_fit if isinstance(model_or_fit, BRDF)
                                         else parse(model_or_fit))
     if mode == "split-sum":
-        return _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress)
-    work = convert(image, probe_layout, "latlong", size)
-    meta = _base_meta(mode, model, probe_layout, image.shape, size)
+        if size in (None, "auto"):
+            raise BakeError("the split-sum mode needs a face size (not auto)")
+        return (yield from _split_sum(image, probe_layout, model, size, levels, preset, dfg))
+    maps = probe_maps(image, probe_layout)
+    threads = threads or min(2, os.cpu_count() or 1)
     if mode == "irradiance":
-        return _irradiance(work, model, meta, method, progress)
+        return (yield from _irradiance(maps, model, image, probe_layout, size, max_size,
+                                       method))
     if mode == "phong":
-        return _phong(work, model, meta, slices, progress)
+        return (yield from _phong(maps, model, image, probe_layout, size, max_size, slices))
     if fit is None:
-        fit = lobes.fit(model, slices=slices, lobes=lobes_count, mode=mode,
-                        progress=scaled(progress, 0.0, 0.2))
+        if lobes_count != 1 and mode == "2d":
+            raise BakeError("the 2D mode has a single lobe (lobes=1)")
+        fit = lobes.fit(model, slices=slices, lobes=lobes_count, mode=mode)
+        yield 0.1, "fitted the lobes"
     elif fit.mode != mode:
         raise BakeError(f"the fit is for mode {fit.mode}, not {mode}")
+    jobs = [(k, j) for k in range(len(fit.slices)) for j in range(fit.lobes)
+            if j < len(fit.slices[k].lobes)]
+    halves = {(k, j): resolution.lobe_half_width(lobes.GAMMA, fit.slices[k].lobes[j].profile)
+              for k, j in jobs}
+    if mode == "2d":
+        jobs = [(len(fit.slices) - 1, 0)]  # the shared shape (that of the last slice)
+    size, reason = _resolve_size(size, max_size, [halves[job] for job in jobs], image,
+                                 probe_layout)
+    check_memory(size, len(fit.slices) * fit.lobes if mode == "3d" else 1)
+    meta = _base_meta(mode, model, probe_layout, image.shape, size)
     meta.update({"slices": len(fit.slices), "lobes": fit.lobes, "mu": fit.mus.tolist(),
                  "offsets": [[lobe.offset for lobe in s.lobes] for s in fit.slices],
                  "albedo": [s.albedo for s in fit.slices],
-                 "rms_error": [s.relative_rms_error for s in fit.slices]})
-    layers = {}
-    if mode == "2d":
-        shape = fit.slices[-1].lobes[0].profile
-        layers[""] = _filter(work, _profile_kernel(shape), scaled(progress, 0.2, 1.0))
-        meta["k"] = [s.lobes[0].weight for s in fit.slices]
-        return BakedMap(mode, layers, meta)
-    jobs = [(k, j) for k in range(len(fit.slices)) for j in range(fit.lobes)]
+                 "rms_error": [s.relative_rms_error for s in fit.slices],
+                 "size_reason": reason,
+                 "filter_rows": {f"{k}.{j}": filter_rows(halves[(k, j)], size)
+                                 for k, j in jobs}})
 
     def job(item):
         k, j = item
-        slice_fit = fit.slices[k]
-        if j >= len(slice_fit.lobes):
-            return item, np.zeros_like(work)
-        lobe = slice_fit.lobes[j]
-        filtered = _filter(work, _profile_kernel(lobe.profile))
-        return item, filtered * np.asarray(lobe.weight, dtype=np.float32)
+        lobe = fit.slices[k].lobes[j]
+        filtered = _filter(maps, _profile_kernel(lobe.profile), size, halves[item])
+        if mode == "2d":
+            return filtered
+        return filtered * np.asarray(lobe.weight, dtype=np.float32)
 
+    layers = {}
     # Slices are independent; NumPy's FFTs and products release the GIL, so
-    # two threads use both cores.
-    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
-        for done, ((k, j), layer) in enumerate(pool.map(job, jobs), start=1):
-            layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer
-            report(progress, 0.2 + 0.8 * done / len(jobs),
-                   f"filtered slice {k + 1}/{len(fit.slices)}")
-    # Missing lobes of a slice have no offset: pad so every slice lists fit.lobes.
+    # two threads use both cores. One step per batch of ``threads`` slices.
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for start in range(0, len(jobs), threads):
+            batch = jobs[start:start + threads]
+            for (k, j), layer in zip(batch, pool.map(job, batch), strict=True):
+                if mode == "2d":
+                    layers[""] = layer
+                else:
+                    layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer
+            done = start + len(batch)
+            yield 0.1 + 0.9 * done / len(jobs), f"filtered slice {done}/{len(jobs)} " \
+                                                f"({size} rows)"
+    if mode == "2d":
+        meta["k"] = [s.lobes[0].weight for s in fit.slices]
+        return BakedMap(mode, layers, meta)
+    # Missing lobes of a slice have no offset (and no layer): pad with zeros.
+    for k, s in enumerate(fit.slices):
+        for j in range(len(s.lobes), fit.lobes):
+            layers[f"lobe{j}.slice.{k}"] = np.zeros((size, 2 * size, 3), np.float32)
     meta["offsets"] = [offs + [0.0] * (fit.lobes - len(offs)) for offs in meta["offsets"]]
     return BakedMap(mode, layers, meta)
 
 
-def _phong(work, model, meta, slices, progress):
+def _phong(maps, model, image, probe_layout, size, max_size, slices):
     if model.name != "phong":
         raise BakeError(f"the phong mode filters Phong lobes; {model.spec} is not a phong BRDF")
     if np.any(np.asarray(model.params["kd"]) > 0):
@@ -443,59 +584,49 @@ def _phong(work, model, meta, slices, progress):
     def kernel(cos_gamma):
         return (exponent + 1.0) / (2.0 * np.pi) * np.clip(cos_gamma, 0.0, None) ** exponent
 
+    half = _kernel_half_width(kernel)
+    size, reason = _resolve_size(size, max_size, [half], image, probe_layout)
+    check_memory(size, 1)
     mus = lobes.slice_nodes(int(slices))
     wo = np.stack([np.sqrt(1 - mus**2), np.zeros_like(mus), mus], -1)
+    meta = _base_meta("phong", model, probe_layout, image.shape, size)
     meta.update({"slices": len(mus), "lobes": 1, "mu": mus.tolist(),
                  "offsets": [[0.0] for _ in mus], "k": model.albedo(wo).tolist(),
-                 "exponent": exponent})
-    return BakedMap("phong", {"": _filter(work, kernel, progress)}, meta)
+                 "exponent": exponent, "size_reason": reason})
+    filtered = _filter(maps, kernel, size, half)
+    yield 1.0, "filtered the Phong lobe"
+    return BakedMap("phong", {"": filtered}, meta)
 
 
-def _irradiance(work, model, meta, method, progress):
+def irradiance_kernel(cos_gamma):
+    """The clamped cosine over pi (1/sr): irradiance / pi, i.e. Lambert's reflected radiance."""
+    return np.clip(cos_gamma, 0.0, None) / np.pi
+
+
+def _irradiance(maps, model, image, probe_layout, size, max_size, method):
     if model.name != "lambert":
         raise BakeError(f"the irradiance mode is for lambert BRDFs, not {model.spec}")
+    half = _kernel_half_width(irradiance_kernel)
+    size, reason = _resolve_size(size, max_size, [half], image, probe_layout)
+    check_memory(size, 1)
+    meta = _base_meta("irradiance", model, probe_layout, image.shape, size)
     if method == "direct":
-        def kernel(cos_gamma):
-            return np.clip(cos_gamma, 0.0, None) / np.pi
-        irradiance = _filter(work, kernel, progress)
+        irradiance = _filter(maps, irradiance_kernel, size, half)
     elif method == "sh":
+        work = maps.latlong(size)
         coefficients = sh.project(work, "latlong")
         directions = get_layout("latlong").texel_directions(work.shape[:2])
         irradiance = sh.irradiance(coefficients, directions).astype(np.float32)
         meta["sh9"] = coefficients.tolist()
     else:
         raise BakeError(f"irradiance method must be 'direct' or 'sh', not {method!r}")
-    meta.update({"method": method, "color": list(model.params["color"])})
+    meta.update({"method": method, "color": list(model.params["color"]),
+                 "size_reason": reason})
+    yield 1.0, "filtered the irradiance"
     return BakedMap("irradiance", {"irradiance": irradiance}, meta)
 
 
-class _Source:
-    """A probe with its exact 2x2 box MIP pyramid: conversions to smaller maps
-    start from the level just finer than needed, so they stay cheap (few
-    sub-samples per texel) without aliasing."""
-
-    def __init__(self, image, layout):
-        from .envmap.mip import pyramid
-
-        self.layout = layout
-        self.levels = pyramid(image, layout, "box") if layout in ("cube", "latlong") else [image]
-
-    def convert(self, layout, size):
-        source = get_layout(self.layout)
-        target = get_layout(layout)
-        needed = target.covered_texels(target.shape(size))
-        chosen = self.levels[0]
-        for level in self.levels:
-            if source.covered_texels(level.shape[:2]) >= needed:
-                chosen = level
-        ratio = source.covered_texels(chosen.shape[:2]) / needed
-        # A level already box-filtered close to the target's resolution needs
-        # few sub-samples: 2 x 2 when it has at most 4x the target's texels.
-        samples = 2 if ratio <= 4.0 else None
-        return convert(chosen, self.layout, layout, size, samples=samples)
-
-
-def _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress):
+def _split_sum(image, probe_layout, model, size, levels, preset, dfg):
     if model.name not in ("ggx", "ggx_multiscatter", "principled_metallic") or not \
             model.isotropic:
         raise BakeError(f"the split-sum mode is for isotropic GGX BRDFs, not {model.spec}")
@@ -509,7 +640,7 @@ def _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress):
     roughness = [PRESETS[preset](index / max(levels - 1, 1)) for index in range(levels)]
     layers = {}
     cube = get_layout("cube")
-    source = _Source(image, probe_layout)
+    source = probe_maps(image, probe_layout)
     for index, r in enumerate(roughness):
         face = max(size >> index, 2)
         if r <= 1e-4:
@@ -520,16 +651,18 @@ def _split_sum(image, probe_layout, model, size, levels, preset, dfg, progress):
             # faces, then read the result at the level's texel centres (as
             # cmgen and the Khronos sampler filter per texel direction).
             kernel = split_sum_kernel(r)
-            rows = _working_rows(kernel, max(2 * face, 32), _probe_rows(image, probe_layout))
-            work = source.convert("latlong", rows)
-            filtered = _filter(work, kernel)
+            half = _kernel_half_width(kernel)
+            detail = latlong_detail_rows(image.shape, probe_layout)
+            rows = int(min(max(2 * face, 32, resolution.rows_for_half_width(half)),
+                           max(2 * face, 32, 3 * detail), 1024))
+            filtered = _filter(source, kernel, rows, half)
             centres = cube.texel_directions(cube.shape(face))
             layers[f"level{index}"] = get_layout("latlong").sampler(filtered)(centres).astype(
                 np.float32)
-        report(progress, (index + 1) / (levels + 1), f"split-sum level {index}")
+        yield (index + 1) / (levels + 1), f"split-sum level {index}"
     if dfg:
         layers["dfg"] = dfg_table().copy()
-    report(progress, 1.0, "DFG table")
+    yield 1.0, "DFG table"
     meta = _base_meta("split-sum", model, probe_layout, image.shape, size)
     material = float(np.sqrt(np.sqrt(model.ax * model.ay)))  # perceptual roughness
     f0 = list(model.params.get("base_color", model.params.get("color", (1.0, 1.0, 1.0))))

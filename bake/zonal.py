@@ -89,15 +89,76 @@ def _rows(height):
     return theta, edges[:-1] - edges[1:]
 
 
+def row_spectrum(image):
+    """Per-row longitude spectra of a lat-long image (H, W, C): (H, W // 2 + 1, C) complex.
+
+    The only transform of the input :func:`zonal_convolve` needs; compute it
+    once per image and pass it as ``spectrum=`` to filter with many kernels.
+    """
+    return np.fft.rfft(np.asarray(image, dtype=np.float64), axis=1)
+
+
+def _column_reach(ta, tb, reach):
+    """Largest longitude difference (rad) at which any output row ta (A,) and input
+    row tb (B,) come within angle ``reach``; pi when a pole is within reach."""
+    sa, ca = np.sin(ta)[:, None], np.cos(ta)[:, None]
+    sb, cb = np.sin(tb)[None, :], np.cos(tb)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = (math.cos(min(reach, np.pi)) - ca * cb) / (sa * sb)
+    c = np.where(np.isfinite(c), c, -1.0)
+    return float(np.arccos(np.clip(c, -1.0, 1.0)).max()) if c.size else 0.0
+
+
+class _SubGrid:
+    """Sub-sample positions of an (H, W) lat-long grid's input texels, s x s per texel:
+    their latitudes (sin, cos), the exact solid angle of each latitude sub-band per
+    longitude sub-step, and cos of the longitude offsets of columns 0..W/2."""
+
+    def __init__(self, height, width, s):
+        edges = np.pi * np.arange(height + 1) / height
+        sub = (np.arange(s) + 0.5) / s
+        theta = edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
+        self.sin, self.cos = np.sin(theta), np.cos(theta)
+        band = edges[:-1, None] + np.arange(s + 1)[None, :] * (np.pi / height / s)
+        self.omega = ((np.cos(band[:, :-1]) - np.cos(band[:, 1:]))
+                      * (2 * np.pi / width / s)).astype(np.float32)
+        half = width // 2 + 1
+        dphi = 2.0 * np.pi * (np.arange(half)[:, None] + (sub[None, :] - 0.5)) / width
+        self.cos_dphi = np.cos(dphi)  # (W/2+1, s)
+        self.s = s
+
+    def weights(self, table, sa, ca, b0, b1, cols):
+        """Kernel integrated over input texels (rows b0:b1, columns 0:cols) for output
+        rows with sin/cos of latitude sa, ca (A,): (A, b1 - b0, cols) float64."""
+        # cos(gamma) for (a, b, sub_b, m, sub_phi): cos a cos b + sin a sin b cos dphi.
+        cos_gamma = (ca[:, None, None, None, None] * self.cos[None, b0:b1, :, None, None]
+                     + (sa[:, None, None, None, None] * self.sin[None, b0:b1, :, None, None])
+                     * self.cos_dphi[None, None, None, :cols, :]).astype(np.float32)
+        weights = table(cos_gamma) * self.omega[None, b0:b1, :, None, None]
+        if self.s > 1:
+            return weights.sum(axis=(2, 4), dtype=np.float64)
+        return weights[:, :, 0, :, 0].astype(np.float64)
+
+
 def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, normalize=True,
-                   progress=None):
+                   progress=None, spectrum=None, supersample_radius=None):
     """Convolve a lat-long image (H, W, C) with a zonal kernel.
 
     kernel: vectorized function of cos(gamma) (any shape) -> weights (1/sr).
     out_height: output rows (default H); the output has the input's W columns,
     shape (out_height, W, C), float32. ``supersample``: sub-samples per
-    input-texel side for integrating the kernel. ``normalize``: rescale each
-    output row's discrete kernel to the kernel's exact integral.
+    input-texel side for integrating the kernel; ``supersample_radius``
+    (rad): only input texels within this angle of an output direction's row
+    and column are sub-sampled (where a narrow kernel varies within a
+    texel), the rest point-sampled at texel centres (default: all texels).
+    ``normalize``: rescale each output row's discrete kernel to the kernel's
+    exact integral. ``spectrum``: :func:`row_spectrum` of ``image``, when
+    already computed.
+
+    Cost: the kernel is evaluated only on the input rows and longitude
+    columns within its support (plus a texel) of each chunk of output rows,
+    so a narrow kernel costs in proportion to the texels it covers, not to
+    the whole sphere.
     """
     image = np.asarray(image)
     get_layout("latlong").check_image(image)
@@ -108,51 +169,59 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
     s = int(supersample)
     if not 1 <= s <= 16:
         raise BakeError(f"supersample must be in [1, 16], not {supersample}")
-    theta_in_edges = np.pi * np.arange(height + 1) / height
     theta_out, _ = _rows(out_height)
-    # Sub-sample positions within an input texel: latitude and longitude offsets.
-    sub = (np.arange(s) + 0.5) / s
-    theta_sub = theta_in_edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
-    cos_edges = np.cos(theta_in_edges)
-    # Exact solid angle of each latitude sub-band, per longitude texel.
-    band_edges = theta_in_edges[:-1, None] + np.arange(s + 1)[None, :] * (np.pi / height / s)
-    band_omega = (np.cos(band_edges[:, :-1]) - np.cos(band_edges[:, 1:])) * (2 * np.pi / width / s)
-    del cos_edges
     # The kernel is even in dphi (and the sub-offsets are symmetric): compute
     # columns 0..W/2 and mirror the rest.
     half = width // 2 + 1
-    dphi = 2.0 * np.pi * (np.arange(half)[:, None] + (sub[None, :] - 0.5)) / width  # (W/2+1, s)
-    cos_dphi = np.cos(dphi)
     target = kernel_integral(kernel) if normalize else None
     table = _Table(kernel)
-    spectrum = np.fft.rfft(image.astype(np.float64), axis=1)  # (H, F, C)
-    freqs = spectrum.shape[1]
+    if spectrum is None:
+        spectrum = row_spectrum(image)  # (H, F, C)
+    elif spectrum.shape != (height, width // 2 + 1, channels):
+        raise BakeError(f"spectrum shape {spectrum.shape} does not match the image {image.shape}")
+    near = table.support if supersample_radius is None else min(supersample_radius,
+                                                                 table.support)
+    fine = _SubGrid(height, width, s)
+    coarse = fine if (s == 1 or near >= table.support) else _SubGrid(height, width, 1)
     out = np.empty((out_height, width, channels), dtype=np.float32)
-    per_row = height * width * s * s * 8 * 3
-    chunk = max(1, _ROW_CHUNK_BYTES // max(per_row, 1))
+    texel = np.pi / height
+    # Bytes per output row of the sub-sampled part (float32 cos and weights).
+    near_cells = (2 * (near + texel) / texel + 1) * min(half, (near + texel) / texel * 4 + 2)
+    per_row = max(near_cells * s * s, height * 2) * 8 * 3
+    chunk = max(1, _ROW_CHUNK_BYTES // max(int(per_row), 1))
     # Narrow kernels: small chunks keep each chunk's input band narrow too.
-    band_rows = (table.support + np.pi / height) / (np.pi / out_height)
-    chunk = int(min(chunk, max(4, 2 * band_rows)))
-    sin_sub, cos_sub = np.sin(theta_sub), np.cos(theta_sub)
+    band_rows = (table.support + texel) / (np.pi / out_height)
+    chunk = int(min(chunk, max(4, 2 * band_rows), 8))
     # Input rows farther in latitude than the kernel's support (plus a texel)
     # cannot contribute: each chunk of output rows reads only its band.
-    reach = table.support + np.pi / height
+    reach = table.support + texel
+    near_reach = near + texel
     theta_in = np.pi * (np.arange(height) + 0.5) / height
+
+    def band_of(ta, distance):
+        band = np.nonzero((theta_in >= ta.min() - distance) & (theta_in <= ta.max() + distance))[0]
+        return (int(band[0]), int(band[-1]) + 1) if band.size else (0, 0)
+
+    def columns(ta, b0, b1, distance):
+        # Longitude columns within reach (sub-samples extend half a texel).
+        reach_phi = _column_reach(ta, theta_in[b0:b1], distance) + np.pi / width
+        return int(min(half, math.ceil(reach_phi / (2.0 * np.pi / width)) + 1))
+
     for start in range(0, out_height, chunk):
         stop = min(start + chunk, out_height)
         ta = theta_out[start:stop]
-        band = np.nonzero((theta_in >= ta.min() - reach) & (theta_in <= ta.max() + reach))[0]
-        b0, b1 = (int(band[0]), int(band[-1]) + 1) if band.size else (0, 0)
+        b0, b1 = band_of(ta, reach)
         sa, ca = np.sin(ta), np.cos(ta)
-        # cos(gamma) for (a, b, sub_b, m, sub_phi): cos a cos b + sin a sin b cos dphi.
-        cos_gamma = (ca[:, None, None, None, None] * cos_sub[None, b0:b1, :, None, None]
-                     + (sa[:, None, None, None, None] * sin_sub[None, b0:b1, :, None, None])
-                     * cos_dphi[None, None, None, :, :]).astype(np.float32)
-        weights = table(cos_gamma) * band_omega[None, b0:b1, :, None, None].astype(np.float32)
-        if s > 1:
-            weights = weights.sum(axis=(2, 4), dtype=np.float64)  # (A, H, W/2+1)
-        else:
-            weights = weights[:, :, 0, :, 0].astype(np.float64)
+        cols = columns(ta, b0, b1, reach)
+        weights = coarse.weights(table, sa, ca, b0, b1, cols)  # (A, band, cols)
+        if coarse is not fine:
+            n0, n1 = band_of(ta, near_reach)
+            near_cols = min(cols, columns(ta, n0, n1, near_reach))
+            weights[:, n0 - b0:n1 - b0, :near_cols] = fine.weights(table, sa, ca, n0, n1,
+                                                                   near_cols)
+        if cols < half:
+            weights = np.concatenate(
+                [weights, np.zeros((*weights.shape[:2], half - cols))], axis=2)
         weights = np.concatenate([weights, weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
         if normalize:
             totals = weights.sum(axis=(1, 2))
@@ -165,7 +234,6 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
                              spectrum[b0:b1].transpose(1, 0, 2)).transpose(1, 0, 2)
         out[start:stop] = np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
         report(progress, stop / out_height, f"convolving rows {stop}/{out_height}")
-    del freqs
     return out
 
 

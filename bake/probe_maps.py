@@ -1,0 +1,171 @@
+"""A probe's lat-long working maps and their row spectra, made once and shared.
+
+Every slice and lobe of every material baked from one probe filters the same
+lat-long images (at the few row counts the lobes need), and zonal filtering
+needs only their per-row longitude spectra (bake.zonal.row_spectrum). A
+:class:`ProbeMaps` converts the probe to each row count once, from an exact
+2x2 box MIP pyramid of the probe (so a small map is cheap to make and does
+not alias), and keeps the conversions and their spectra. :func:`probe_maps`
+returns the same object for the same probe content in one process, so the
+transforms are shared between the materials of a bake and between bakes of
+an unchanged probe in a Blender session.
+
+Images are (H, W, 3) float32 lat-long maps, W = 2H, row 0 at the zenith.
+"""
+
+import hashlib
+import math
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+from .envmap import convert, get_layout
+from .zonal import row_spectrum
+
+__all__ = ["ProbeMaps", "probe_maps", "resample_rows", "clear_cache"]
+
+#: Probes kept in the process-wide cache (least recently used dropped first).
+CACHE_PROBES = 3
+_cache: "OrderedDict[tuple, ProbeMaps]" = OrderedDict()
+_cache_lock = threading.Lock()
+
+
+class ProbeMaps:
+    """Lat-long conversions of one probe at any row count, with their row spectra.
+
+    image: (H, W, 3) float32 probe in ``layout`` (``cube`` strip or ``latlong``).
+    Thread-safe: two filtering threads asking for the same rows share one
+    conversion.
+    """
+
+    def __init__(self, image, layout):
+        from .envmap.mip import pyramid
+
+        self.layout = layout
+        self.shape = image.shape
+        self.levels = pyramid(image, layout, "box") if layout in ("cube", "latlong") else [image]
+        self._maps: dict = {}
+        self._spectra: dict = {}
+        self._lock = threading.Lock()
+        self._row_locks: dict = {}
+        #: How many conversions and transforms were computed (for tests and benchmarks).
+        self.computed = {"maps": 0, "spectra": 0}
+
+    def convert(self, layout, size):
+        """The probe in ``layout`` at ``size``, from the finest pyramid level needed."""
+        source = get_layout(self.layout)
+        target = get_layout(layout)
+        needed = target.covered_texels(target.shape(size))
+        chosen = self.levels[0]
+        for level in self.levels:
+            if source.covered_texels(level.shape[:2]) >= needed:
+                chosen = level
+        ratio = source.covered_texels(chosen.shape[:2]) / needed
+        # A level already box-filtered close to the target's resolution needs
+        # few sub-samples: 2 x 2 when it has at most 4x the target's texels.
+        samples = 2 if ratio <= 4.0 else None
+        return convert(chosen, self.layout, layout, size, samples=samples)
+
+    def _row_lock(self, rows):
+        with self._lock:
+            return self._row_locks.setdefault(rows, threading.Lock())
+
+    def latlong(self, rows: int):
+        """(rows, 2 rows, 3) float32 lat-long map of the probe (cached; do not modify)."""
+        rows = int(rows)
+        with self._row_lock(rows):
+            if rows not in self._maps:
+                self._maps[rows] = self.convert("latlong", rows)
+                self.computed["maps"] += 1
+            return self._maps[rows]
+
+    def spectrum(self, rows: int):
+        """Row spectra (rows, rows + 1, 3) complex of :meth:`latlong` (cached)."""
+        rows = int(rows)
+        image = self.latlong(rows)
+        with self._row_lock(rows):
+            if rows not in self._spectra:
+                self._spectra[rows] = row_spectrum(image)
+                self.computed["spectra"] += 1
+            return self._spectra[rows]
+
+
+def _digest(image, layout):
+    data = np.ascontiguousarray(image, dtype=np.float32)
+    return (layout, data.shape, hashlib.blake2b(data.tobytes(), digest_size=16).hexdigest())
+
+
+def probe_maps(image, layout) -> ProbeMaps:
+    """The shared :class:`ProbeMaps` of this probe content (made on first use)."""
+    key = _digest(image, layout)
+    with _cache_lock:
+        maps = _cache.get(key)
+        if maps is not None:
+            _cache.move_to_end(key)
+            return maps
+    maps = ProbeMaps(np.asarray(image, dtype=np.float32), layout)
+    with _cache_lock:
+        maps = _cache.setdefault(key, maps)
+        _cache.move_to_end(key)
+        while len(_cache) > CACHE_PROBES:
+            _cache.popitem(last=False)
+    return maps
+
+
+def clear_cache():
+    """Forget every cached probe (frees their memory)."""
+    with _cache_lock:
+        _cache.clear()
+
+
+def _axis_weights(source_count, target_count, periodic):
+    """Indices (i0, i1) and weight t of linear interpolation from cell centres of one
+    uniform grid to another over the same interval (periodic, or with end nodes)."""
+    x = (np.arange(target_count) + 0.5) * source_count / target_count - 0.5
+    if periodic:
+        i0 = np.floor(x).astype(int)
+        t = x - i0
+        return np.mod(i0, source_count), np.mod(i0 + 1, source_count), t
+    # Non-periodic axis (latitude): nodes are the source centres plus the two
+    # poles at -0.5 and source_count - 0.5, held at indices 0 and count + 1.
+    x = np.clip(x, -0.5, source_count - 0.5)
+    nodes = np.concatenate([[-0.5], np.arange(source_count), [source_count - 0.5]])
+    i0 = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, source_count)
+    t = (x - nodes[i0]) / (nodes[i0 + 1] - nodes[i0])
+    return i0, i0 + 1, t
+
+
+def resample_rows(image, rows: int):
+    """A lat-long map (H, 2H, C) resampled to (rows, 2 rows, C) by bilinear interpolation
+    in (theta, phi), the poles taking the mean of their nearest ring (float32).
+
+    Used to bring a map filtered at the resolution its lobe needs to the
+    material's map size: for a map filtered by a lobe that spans several of
+    its texels, the interpolation error is a small fraction of the lobe's own
+    blur (measured in bake.resolution's curve).
+    """
+    image = np.asarray(image, dtype=np.float32)
+    height, width = image.shape[:2]
+    rows = int(rows)
+    if rows == height and 2 * rows == width:
+        return image
+    north = image[:1].mean(axis=1, keepdims=True).repeat(width, 1)
+    south = image[-1:].mean(axis=1, keepdims=True).repeat(width, 1)
+    padded = np.concatenate([north, image, south])
+    r0, r1, tr = _axis_weights(height, rows, periodic=False)
+    by_rows = padded[r0] * (1 - tr)[:, None, None] + padded[r1] * tr[:, None, None]
+    c0, c1, tc = _axis_weights(width, 2 * rows, periodic=True)
+    out = by_rows[:, c0] * (1 - tc)[None, :, None] + by_rows[:, c1] * tc[None, :, None]
+    return out.astype(np.float32)
+
+
+def latlong_detail_rows(shape, layout) -> int:
+    """Lat-long rows whose equatorial texel matches the probe's finest angular spacing.
+
+    cube (N, 6N): a face texel at the face centre spans 2 / N rad, so
+    rows = ceil(pi N / 2); lat-long (H, 2H): H.
+    """
+    if layout == "cube":
+        return int(math.ceil(math.pi * shape[0] / 2.0))
+    return int(shape[0])
