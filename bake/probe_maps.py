@@ -63,8 +63,9 @@ class ProbeMaps:
                 chosen = level
         ratio = source.covered_texels(chosen.shape[:2]) / needed
         # A level already box-filtered close to the target's resolution needs
-        # few sub-samples: 2 x 2 when it has at most 4x the target's texels.
-        samples = 2 if ratio <= 4.0 else None
+        # few sub-samples: 2 x 2 when it has at most 4x the target's texels,
+        # one (the bilinear reconstruction itself) when the target is finer.
+        samples = 1 if ratio <= 1.0 else (2 if ratio <= 4.0 else None)
         return convert(chosen, self.layout, layout, size, samples=samples)
 
     def _row_lock(self, rows):

@@ -6,23 +6,32 @@ from adds nothing the probe had. Both rules are in units of the lobe's half
 width at half maximum (HWHM, rad, :func:`lobe_half_width`) and of the
 probe's angular spacing (:func:`bake.probe_maps.latlong_detail_rows`):
 
-    rows(lobe)  = ceil(TEXELS_PER_HALF_WIDTH * pi / HWHM)   (the HWHM spans that many texels)
-    rows(probe) = ceil(PROBE_OVERSAMPLING * detail rows of the probe)
-    map rows    = clamp(min(rows(narrowest lobe), rows(probe)), MIN_ROWS, user's maximum)
+    w_eff     = hypot(w_lobe, w_probe)      w_probe = half the probe's coarsest texel
+    map rows  = ceil(TEXELS_PER_HALF_WIDTH * pi / w_eff), rounded up to a multiple of 8,
+                at least MIN_ROWS, at most the user's maximum and the GPU's texture limit
 
-The constants come from the curve `benchmarks/resolution_curve.py` measures:
-the error of a 3D map against the brute-force integral of the true BRDF
-over the probe, on isolated-sphere pixels in sunset.exr (the sun is the
-hardest case), as the map's rows grow by factors of sqrt(2), for GGX
-roughness 0.05-0.6 and probes of 32-128 texel faces. The error falls until
-the lobe's HWHM spans about 2 texels and is flat (within 3%) beyond 3; past
-1.5x the probe's detail rows it no longer falls for lobes narrower than a
-probe texel. TEXELS_PER_HALF_WIDTH = 3 and PROBE_OVERSAMPLING = 1.5 put the
-Auto size on the flat part: doubling it changes the error by under 5%
-(tests/bake/test_resolution.py asserts the issue's 1.2x bound).
+w_lobe is the narrowest slice's width (the angle holding 25% of its energy,
+which for GGX equals the half width at half maximum). The probe term is
+there because the truth a map converges to is the lobe applied to the
+probe's (bilinear) reconstruction, whose sharpest features (a sun one texel
+wide) are a texel across: a lobe far narrower than the probe's texels needs
+no more rows than the texels themselves.
 
-The probe face that a lobe needs follows by inverting the probe rule; a
-world-only probe is further capped by the world image's own detail.
+The constant comes from the curve `benchmarks/resolution_curve.py` measures:
+the relative RMS error of a 3D map's lookup against the brute-force
+integral of the true BRDF over the probe's bilinear reconstruction, on
+isolated-sphere pixels in sunset.exr (its sun is the hardest case), as the
+rows grow. GGX 0.1 from a 32-px cube probe: 0.104 / 0.079 / 0.042 / 0.042 /
+0.038 at 152 / 200 / 300 / 400 / 600 rows (the rule gives 304); from a
+64-px probe: 0.064 / 0.040 / 0.027 at 256 / 384 / 512 (rule: 560); GGX 0.2
+from a 64-px probe: 0.028 / 0.015 / 0.017 / 0.014 at 152 / 192 / 256 / 384
+(rule: 232). The error is flat once w_eff spans about 3 texels, so
+TEXELS_PER_HALF_WIDTH = 3: at Auto, doubling the rows changes the error by
+under 1.2x (tests/bake/test_resolution.py asserts it at GGX 0.1).
+
+The probe face a lobe needs: the face whose half texel is no wider than the
+lobe (then the lobe, not the probe, sets the map); a world-only probe is
+further capped by the world image's own detail.
 """
 
 import math
@@ -32,12 +41,11 @@ import numpy as np
 from .errors import BakeError
 from .probe_maps import latlong_detail_rows
 
-__all__ = ["TEXELS_PER_HALF_WIDTH", "PROBE_OVERSAMPLING", "MIN_ROWS", "lobe_half_width",
+__all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "lobe_half_width", "effective_half_width",
            "latlong_detail_rows",
            "rows_for_half_width", "Choice", "choose_map_rows", "choose_probe_face"]
 
 TEXELS_PER_HALF_WIDTH = 3.0
-PROBE_OVERSAMPLING = 1.5
 MIN_ROWS = 16
 
 
@@ -97,57 +105,59 @@ class Choice:
         return f"Choice({self.value}, {self.reason!r})"
 
 
-def choose_map_rows(half_widths, probe_shape, probe_layout, maximum=None) -> Choice:
+def choose_map_rows(half_widths, probe_shape, probe_layout, maximum=None, layers=1,
+                    texture_limit=16384) -> Choice:
     """Auto lat-long rows of a baked map.
 
-    half_widths: HWHM (rad) of every lobe the map holds (the narrowest rules);
-    probe_shape / probe_layout: the probe filtered; maximum: the user's upper
-    bound (None: none).
+    half_widths: widths (rad, :func:`lobe_half_width`) of every lobe the map
+    holds (the narrowest rules); probe_shape / probe_layout: the probe
+    filtered; maximum: the user's upper bound (None: none); layers: slices
+    stacked in the atlas, which must stay within ``texture_limit`` rows.
     """
     narrowest = float(min(half_widths))
-    lobe_rows = rows_for_half_width(narrowest)
-    probe_rows = int(math.ceil(PROBE_OVERSAMPLING * latlong_detail_rows(probe_shape,
-                                                                        probe_layout)))
-    degrees = math.degrees(narrowest)
-    if lobe_rows <= probe_rows:
-        rows, limited_by = _round_rows(lobe_rows), "lobe"
-        reason = (f"{rows} rows: the narrowest lobe (half width {degrees:.2f} deg) spans "
-                  f"{TEXELS_PER_HALF_WIDTH:g} texels")
-        if rows == MIN_ROWS and lobe_rows < MIN_ROWS:
-            limited_by = "minimum"
-    else:
-        rows, limited_by = _round_rows(probe_rows), "probe"
-        reason = (f"{rows} rows: capped by the probe's detail ({probe_shape[0]} px "
-                  f"{probe_layout}); the lobe (half width {degrees:.2f} deg) would use "
-                  f"{_round_rows(lobe_rows)}")
+    width = effective_half_width(narrowest, probe_shape, probe_layout)
+    wanted = _round_rows(rows_for_half_width(width))
+    rows, limited_by = wanted, "lobe"
+    reason = (f"{rows} rows: the lobe (width {math.degrees(narrowest):.2f} deg) seen "
+              f"through the probe's texels ({probe_shape[0]} px {probe_layout}) spans "
+              f"{TEXELS_PER_HALF_WIDTH:g} texels")
+    if rows == MIN_ROWS:
+        limited_by = "minimum"
+    gpu = texture_limit // max(int(layers), 1) - 2
     if maximum is not None and rows > int(maximum):
         rows, limited_by = int(maximum), "maximum"
-        reason = f"{rows} rows: the Max Map Size set on the material (Auto wanted more)"
+        reason = (f"{rows} rows: limited by Max Map Size (Auto wanted {wanted}: sharper "
+                  f"highlights, bake time grows with rows squared)")
+    if rows > gpu:
+        rows, limited_by = gpu, "texture limit"
+        reason = (f"{rows} rows: {layers} slices x {rows + 2} rows is the GPU's {texture_limit}-"
+                  f"row texture limit (Auto wanted {wanted})")
     return Choice(rows, reason, limited_by)
 
 
 def choose_probe_face(half_widths, maximum, world_rows=None) -> Choice:
-    """Auto cube face size of a probe for lobes of these HWHMs (rad).
+    """Auto cube face size of a probe for lobes of these widths (rad).
 
-    The face whose detail rows times PROBE_OVERSAMPLING reach the narrowest
-    lobe's map rows; capped by ``maximum`` (the user's field) and, for a
-    world-only probe, by the world image's own detail ``world_rows``
-    (lat-long rows of the environment image).
+    The face whose half texel at the face centre (1 / face rad) is no wider
+    than the narrowest lobe, so the map's rows follow the lobe rather than
+    the probe; a multiple of 8, at least 8. Capped by ``maximum`` (the
+    user's field) and, for a world-only probe, by the world image's own
+    detail ``world_rows`` (lat-long rows of the environment image: finer
+    faces would only interpolate it).
     """
     narrowest = float(min(half_widths)) if len(half_widths) else math.pi / 8
-    wanted_rows = rows_for_half_width(narrowest) / PROBE_OVERSAMPLING
-    face = max(8, int(math.ceil(2.0 * wanted_rows / math.pi)))
-    face = int(math.ceil(face / 8.0)) * 8
-    reason = (f"{face} px faces: the narrowest lobe (half width "
-              f"{math.degrees(narrowest):.2f} deg) needs them")
+    face = max(8, int(math.ceil(1.0 / narrowest / 8.0)) * 8)
+    reason = (f"{face} px faces: the narrowest lobe (width {math.degrees(narrowest):.2f} deg) "
+              f"is no narrower than half a texel")
     limited_by = "lobe"
     if world_rows is not None:
-        world_face = int(math.ceil(2.0 * world_rows / math.pi / 8.0)) * 8
+        world_face = max(8, int(math.ceil(2.0 * world_rows / math.pi / 8.0)) * 8)
         if face > world_face:
             face, limited_by = world_face, "world"
-            reason = (f"{face} px faces: the world image's own detail "
-                      f"({world_rows} rows); finer faces would add nothing")
+            reason = (f"{face} px faces: the world image's own detail ({world_rows} rows); "
+                      f"finer faces would add nothing")
     if face > int(maximum):
+        wanted = face
         face, limited_by = int(maximum), "maximum"
-        reason = f"{face} px faces: the object's Max Probe Resolution (Auto wanted more)"
+        reason = f"{face} px faces: limited by Max Probe Resolution (Auto wanted {wanted})"
     return Choice(face, reason, limited_by)

@@ -6,7 +6,8 @@ at fixed rows from 16 up, and prints the relative RMS luminance error of
 ``BakedMap.shade`` against the brute-force integral of the true BRDF over
 the probe's bilinear reconstruction (sampled 3x finer than the probe),
 on the pixels of an isolated sphere seen by an orthographic camera. The
-rows Auto would choose are marked; the error should be flat from there on.
+rows Auto would choose (without a Max Map Size) are marked; the error
+should be flat from there on.
 
     .venv/bin/python benchmarks/resolution_curve.py [--faces 64] [--pixels 24]
 """
@@ -55,7 +56,7 @@ def curve(probe, fine, spec, normals, views, sizes):
     model = prefilter.parse(spec)
     truth = reflected_radiance(model, fine, "cube", normals, views)
     fit = lobes.fit(spec, slices=16)
-    auto = prefilter.prefilter(probe, fit, "3d", "auto", layout="cube")
+    auto = prefilter.prefilter(probe, fit, "3d", "auto", layout="cube", max_size=2048)
     rows = []
     for size in sorted(set(sizes) | {auto.meta["size"]}):
         start = time.perf_counter()
@@ -79,9 +80,8 @@ def main():
     normals, views = sphere_pixels(args.pixels)
     sizes = [int(x) for x in args.sizes.split(",")]
     print(f"{args.hdri}, cube faces {args.faces}, {len(normals)} sphere pixels; "
-          f"rule: HWHM spans {resolution.TEXELS_PER_HALF_WIDTH:g} texels, "
-          f"cap {resolution.PROBE_OVERSAMPLING:g}x the probe's detail rows "
-          f"({resolution.latlong_detail_rows(probe.shape, 'cube')})")
+          f"rule: hypot(lobe width, half a probe texel) spans "
+          f"{resolution.TEXELS_PER_HALF_WIDTH:g} texels")
     for roughness in (float(r) for r in args.roughness.split(",")):
         meta, rows = curve(probe, fine, f"ggx:roughness={roughness}", normals, views, sizes)
         print(f"GGX {roughness}: Auto = {meta['size_reason']}")
