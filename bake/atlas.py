@@ -22,7 +22,18 @@ import numpy as np
 
 from .errors import BakeError
 
-__all__ = ["pack", "shade", "texel_uv"]
+__all__ = ["pack", "shade", "texel_uv", "storage_precision", "HALF_MAX"]
+
+#: Largest finite value of a 16-bit float.
+HALF_MAX = 65504.0
+
+
+def storage_precision(image) -> str:
+    """``half`` when every value of an atlas fits a 16-bit float (half the file, and the
+    GPU texture Blender makes anyway), else ``float32``: a probe brighter than a half
+    float holds (a sun of 1e5) keeps its map 32-bit rather than turning it to inf."""
+    values = np.asarray(image)
+    return "half" if values.size and float(np.abs(values).max()) <= HALF_MAX else "float32"
 
 
 def _pad(image):

@@ -182,11 +182,23 @@ def cmd_prefilter(args, mode=None):
     progress = None if args.quiet else LinePrinter()
     baked = prefilter.prefilter(image, brdf_spec, mode, args.size, slices=args.slices,
                                 lobes_count=args.lobes, layout=layout, levels=args.levels,
-                                preset=args.preset, method=args.method, progress=progress)
+                                preset=args.preset, method=args.method,
+                                max_size=args.max_size, progress=progress)
     baked.meta["source"] = Path(args.input).name
     baked.write(output)
-    print(f"wrote {output} ({mode}, {len(baked.layers)} layer(s)) and "
-          f"{output.with_suffix('.json')}")
+    reason = baked.meta.get("size_reason")
+    print(f"wrote {output} ({mode}, {len(baked.layers)} layer(s)"
+          f"{'; ' + reason if reason else ''}) and {output.with_suffix('.json')}")
+
+
+def _size_or_auto(text):
+    if text == "auto":
+        return "auto"
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number or 'auto', not {text!r}")\
+            from None
 
 
 def _add_prefilter_options(p, with_brdf=True):
@@ -195,8 +207,12 @@ def _add_prefilter_options(p, with_brdf=True):
         p.add_argument("--brdf", required=True, help="BRDF spec, e.g. ggx:roughness=0.3")
     p.add_argument("--from", dest="source", choices=["latlong", "cube"],
                    help="probe layout (default: from metadata or shape)")
-    p.add_argument("--size", required=True, type=int,
-                   help="lat-long rows N (N x 2N maps) or split-sum base cube face")
+    p.add_argument("--size", default="auto", type=_size_or_auto,
+                   help="lat-long rows N (N x 2N maps), or 'auto' (default: from the lobe "
+                        "width and the probe's detail, at most --max-size); split-sum: the "
+                        "base cube face (required)")
+    p.add_argument("--max-size", type=int, default=None,
+                   help="upper bound of an auto size (default 320)")
     p.add_argument("--slices", type=int, default=16, help="view elevations K (default 16)")
     p.add_argument("--lobes", type=int, default=1, help="lobes per slice (3d, default 1)")
     p.add_argument("--levels", type=int, help="split-sum MIP levels (default 6, fewer if small)")

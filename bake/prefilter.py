@@ -41,7 +41,7 @@ from .brdf.microfacet import ggx_d
 from .envmap import get_layout
 from .errors import BakeError
 from .probe_maps import latlong_detail_rows, probe_maps, resample_rows
-from .progress import report
+from .progress import run_steps
 from .zonal import suggested_supersample, zonal_convolve
 
 __all__ = ["MODES", "PRESETS", "prefilter", "load", "BakedMap", "split_sum_kernel", "dfg_table"]
@@ -117,15 +117,15 @@ def _kernel_half_width(kernel):
 
 
 #: The finest tier's radius in texels of its grid and in lobe widths (at least
-#: both); sub-sampling reaches SUPERSAMPLE_HALF_WIDTHS widths (plus 2 texels).
+#: both); sub-sampling reaches SUPERSAMPLE_HALF_WIDTHS widths (plus a texel).
 CORE_TEXELS = 8.0
 CORE_HALF_WIDTHS = 2.0
 SUPERSAMPLE_HALF_WIDTHS = 4.0
-#: Lobes narrower than this fraction of a working texel are filtered as an
-#: equal-energy Gaussian of a quarter texel; sub-samples per texel side are
-#: at most MAX_SUPERSAMPLE (the kernel is integrated over input texels).
-SUBTEXEL_FRACTION = 0.5
-MAX_SUPERSAMPLE = 2
+#: Lobes narrower than this fraction of a working texel have their core filtered
+#: as an equal-energy Gaussian of that width; sub-samples per texel side (near
+#: each direction only) are at most MAX_SUPERSAMPLE.
+SUBTEXEL_FRACTION = 1.0 / 16.0
+MAX_SUPERSAMPLE = 8
 
 
 #: Texels per lobe width of the grid a lobe is filtered on, when that is coarser than
@@ -179,12 +179,11 @@ def _filter(maps, kernel, rows, half=None):
     4 texels of the grid it is filtered on. Each piece is normalized to its
     own exact integral, so the sum keeps the kernel's energy exactly (a
     constant map stays its constant). Near each output direction (within 4
-    lobe widths and 2 texels) the kernel is integrated over input texels
-    with up to 2 x 2 sub-samples; a lobe narrower than half a texel is
-    replaced by an equal-energy Gaussian of a quarter texel (measured: on
-    GGX 0.1 from a 32-px probe, 2 x 2 sub-samples are as accurate against
-    the brute-force truth as 4 x 4, 0.0415 vs 0.0425 relative RMS, and 30%
-    faster).
+    lobe widths and a texel) the kernel is integrated over input texels
+    with up to 8 x 8 sub-samples (a lobe's core narrower than a texel sees
+    only the texel it is in, as the texel-integrated truth does); the core
+    of a lobe narrower than 1/16 texel (its part within 1-2 texels) is
+    replaced by an equal-energy Gaussian of 1/16 texel, its tail kept.
     """
     from .zonal import kernel_integral
 
@@ -192,17 +191,24 @@ def _filter(maps, kernel, rows, half=None):
     work_rows = filter_rows(half, rows)
     texel = np.pi / work_rows
     if half < SUBTEXEL_FRACTION * texel:
-        # Below what the map can show only the lobe's energy and centre matter.
-        energy = kernel_integral(kernel)
-        sigma = 0.25 * texel
+        # The lobe's core is under 1/16 texel, finer than the sub-samples can
+        # follow; only its energy and centre matter there. The part within 1-2
+        # texels becomes an equal-energy Gaussian of 1/16 texel (inside the
+        # texel it sits in); the rest (GGX's heavy tail, often a large share
+        # of the energy) is kept as it is.
+        near = _taper(texel)
+        core_energy = kernel_integral(_tier_piece(kernel, None, near))
+        sigma = SUBTEXEL_FRACTION * texel
+        outside = _tier_piece(kernel, near, None)
 
-        def kernel(cos_gamma, energy=energy, sigma=sigma):
+        def kernel(cos_gamma, energy=core_energy, sigma=sigma, outside=outside):
             gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
-            return energy * np.exp(-0.5 * (gamma / sigma) ** 2) / (2 * np.pi * sigma**2)
+            core = energy * np.exp(-0.5 * (gamma / sigma) ** 2) / (2 * np.pi * sigma**2)
+            return core + outside(cos_gamma)
 
         half = _kernel_half_width(kernel)
     supersample = min(suggested_supersample(half, texel), MAX_SUPERSAMPLE)
-    near = SUPERSAMPLE_HALF_WIDTHS * half + 2.0 * texel
+    near = SUPERSAMPLE_HALF_WIDTHS * half + 1.0 * texel
     radius = max(CORE_HALF_WIDTHS * half, CORE_TEXELS * texel)
     result = np.zeros((rows, 2 * rows, 3), np.float32)
     inner = None  # the previous tier's window
@@ -416,8 +422,6 @@ def _base_meta(mode, model, probe_layout, probe_shape, size):
 
 #: Bytes of memory a bake may plan to use, as a fraction of what is available.
 MEMORY_FRACTION = 0.8
-#: Largest value a 16-bit float holds; maps brighter than this stay 32-bit.
-HALF_MAX = 65504.0
 
 
 def available_memory() -> int:
@@ -480,15 +484,10 @@ def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_coun
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
     progress(fraction, message) is called after the fit and after every slice.
     """
-    steps = prefilter_steps(image, model_or_fit, mode, size, slices=slices,
-                            lobes_count=lobes_count, layout=layout, levels=levels,
-                            preset=preset, method=method, dfg=dfg, max_size=max_size)
-    while True:
-        try:
-            fraction, message = next(steps)
-        except StopIteration as done:
-            return done.value
-        report(progress, fraction, message)
+    return run_steps(prefilter_steps(image, model_or_fit, mode, size, slices=slices,
+                                     lobes_count=lobes_count, layout=layout, levels=levels,
+                                     preset=preset, method=method, dfg=dfg,
+                                     max_size=max_size), progress)
 
 
 def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,

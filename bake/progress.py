@@ -10,7 +10,7 @@ import sys
 import time
 from collections.abc import Callable
 
-__all__ = ["Progress", "LinePrinter", "report", "scaled"]
+__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps"]
 
 Progress = Callable[[float, str], None]
 
@@ -30,6 +30,19 @@ def scaled(progress: Progress | None, start: float, stop: float) -> Progress | N
         progress(start + (stop - start) * fraction, message)
 
     return inner
+
+
+def run_steps(steps, progress: Progress | None = None, start: float = 0.0, stop: float = 1.0):
+    """Drive a generator of (fraction, message) steps to its end; returns its value.
+
+    Each step's fraction is mapped onto [start, stop] of ``progress``.
+    """
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        report(progress, start + (stop - start) * fraction, message)
 
 
 class LinePrinter:

@@ -1,17 +1,17 @@
 """How many texels a lobe needs: the Auto map size and probe resolution.
 
 A filtered map is looked up bilinearly, so its texels must be small against
-the lobe that blurred it; and a map finer than the probe it was filtered
-from adds nothing the probe had. Both rules are in units of the lobe's half
-width at half maximum (HWHM, rad, :func:`lobe_half_width`) and of the
-probe's angular spacing (:func:`bake.probe_maps.latlong_detail_rows`):
+what it shows: the lobe that blurred it, applied to the probe it was
+filtered from. The rules are in units of the lobe's width (rad,
+:func:`lobe_half_width`) and of the probe's angular spacing
+(:func:`bake.probe_maps.latlong_detail_rows`):
 
     w_eff     = hypot(w_lobe, w_probe)      w_probe = half the probe's coarsest texel
     map rows  = ceil(TEXELS_PER_HALF_WIDTH * pi / w_eff), rounded up to a multiple of 8,
                 at least MIN_ROWS, at most the user's maximum and the GPU's texture limit
 
 w_lobe is the narrowest slice's width (the angle holding 25% of its energy,
-which for GGX equals the half width at half maximum). The probe term is
+which for GGX is within 11% of the half width at half maximum). The probe term is
 there because the truth a map converges to is the lobe applied to the
 probe's (bilinear) reconstruction, whose sharpest features (a sun one texel
 wide) are a texel across: a lobe far narrower than the probe's texels needs
@@ -52,10 +52,11 @@ MIN_ROWS = 16
 def lobe_half_width(gamma, profile) -> float:
     """A zonal profile's width (rad): the angle from its centre holding 25% of its energy.
 
-    For a GGX lobe this equals its half width at half maximum (the GGX slope
-    distribution holds r^2 / (alpha^2 + r^2) of its energy within r); unlike
-    the HWHM it ignores narrow spikes that carry no energy (the mean profile
-    of a grazing slice, cut by the horizon, drops to half its peak at once).
+    For a GGX lobe it is 2 alpha / sqrt(3) at normal incidence (the slope
+    distribution holds r^2 / (alpha^2 + r^2) of its energy within slope r),
+    within 11% of its half width at half maximum (1.29 alpha); unlike the
+    HWHM it ignores narrow spikes that carry no energy (the mean profile of
+    a grazing slice, cut by the horizon, drops to half its peak at once).
     gamma: (G,) increasing angles from 0; profile: (G,) values (1/sr),
     interpolated linearly. pi when the profile has no energy.
     """
@@ -81,7 +82,7 @@ def effective_half_width(half_width, probe_shape, probe_layout) -> float:
 
 
 def rows_for_half_width(half_width: float) -> int:
-    """Lat-long rows at which a lobe of this HWHM (rad) spans TEXELS_PER_HALF_WIDTH texels."""
+    """Lat-long rows at which a lobe of this width (rad) spans TEXELS_PER_HALF_WIDTH texels."""
     if not half_width > 0:
         raise BakeError(f"a lobe half width must be > 0 rad, not {half_width!r}")
     return int(math.ceil(TEXELS_PER_HALF_WIDTH * math.pi / half_width))

@@ -15,6 +15,7 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
         probe_key = [str(probe), None, None]
     key = {"spec": material_settings.brdf_spec(), "method": material_settings.method,
            "slices": material_settings.slices, "size": material_settings.map_size,
+           "size_mode": material_settings.size_mode,
            "lobes": material_settings.lobes if material_settings.method == "3d" else 1,
            "diffuse": [round(c, 6) for c in material_settings.diffuse],
            "probe": probe_key}

@@ -307,9 +307,15 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
     return material
 
 
-def load_atlas(path, meta_name=None):
-    """Load (or reuse) the atlas EXR as a Non-Color float image."""
+def load_atlas(path, meta_name=None, precision="float32"):
+    """Load (or reuse) the atlas EXR as a Non-Color float image.
+
+    precision: the atlas meta's ``precision``; a ``float32`` atlas (one
+    brighter than a half float holds, or a diffuse map) stays 32-bit on the
+    GPU (Blender's default uploads float images as half floats).
+    """
     image = bpy.data.images.load(str(path), check_existing=True)
     image.colorspace_settings.name = "Non-Color"
+    image.use_half_precision = precision == "half"
     image.reload()  # a re-bake rewrote the file (or restored a missing one)
     return image

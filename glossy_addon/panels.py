@@ -5,6 +5,21 @@ import bpy
 from .world import find_environment_image
 
 
+def _reason(layout, text, icon="INFO"):
+    """A chosen size and its reason, wrapped over lines of about 40 characters."""
+    words, line, lines = text.split(), "", []
+    for word in words:
+        if line and len(line) + len(word) > 40:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}".strip()
+    lines.append(line)
+    column = layout.column(align=True)
+    for index, part in enumerate(lines):
+        column.label(text=part, icon=icon if index == 0 else "BLANK1")
+
+
 class GLOSSY_PT_environment(bpy.types.Panel):
     bl_label = "Environment"
     bl_idname = "GLOSSY_PT_environment"
@@ -46,7 +61,10 @@ class GLOSSY_PT_probe(bpy.types.Panel):
         column = layout.column(align=True)
         column.prop(settings, "probe_source")
         column.prop(settings, "centre_mode")
-        column.prop(settings, "probe_resolution")
+        column.prop(settings, "probe_size_mode")
+        column.prop(settings, "probe_resolution",
+                    text="Max Probe Resolution" if settings.probe_size_mode == "AUTO"
+                    else "Probe Resolution")
         if settings.probe_source == "RENDER":
             column.prop(settings, "capture_engine")
             column.prop(settings, "capture_samples")
@@ -58,6 +76,8 @@ class GLOSSY_PT_probe(bpy.types.Panel):
         row.operator("glossy.clear", icon="TRASH")
         if settings.probe_path:
             layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
+            if settings.probe_reason:
+                _reason(layout, settings.probe_reason)
 
 
 class GLOSSY_PT_material(bpy.types.Panel):
@@ -94,10 +114,14 @@ class GLOSSY_PT_material(bpy.types.Panel):
         column.prop(settings, "slices")
         if settings.method == "3d":
             column.prop(settings, "lobes")
-        column.prop(settings, "map_size")
+        column.prop(settings, "size_mode")
+        column.prop(settings, "map_size",
+                    text="Max Map Size" if settings.size_mode == "AUTO" else "Map Size")
         obj = context.object
         probe = obj.glossy.probe_path if obj is not None else ""
         layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
+        if settings.size_reason:
+            _reason(layout, f"Baked at {settings.size_reason}", icon="TEXTURE")
         row = layout.row(align=True)
         row.operator("glossy.bake_materials", icon="RENDER_RESULT")
         row.operator("glossy.attach_materials", icon="NODETREE")

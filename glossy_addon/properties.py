@@ -49,10 +49,22 @@ class GlossySceneSettings(bpy.types.PropertyGroup):
 class GlossyObjectSettings(bpy.types.PropertyGroup):
     """Probe settings of one object (``Object.glossy``)."""
 
-    probe_resolution: bpy.props.IntProperty(
-        name="Probe Resolution", description="Cube face size of the captured probe (texels)",
-        default=128, min=0, soft_min=8, soft_max=1024, max=4096,
+    probe_size_mode: bpy.props.EnumProperty(
+        name="Probe Size", description="How the probe's cube face size is chosen",
+        items=[("AUTO", "Auto", "From the narrowest lobe of the object's Glossy materials "
+                                "(and, for World Only, the world image's own detail), at most "
+                                "Probe Resolution"),
+               ("FIXED", "Fixed", "Exactly Probe Resolution")],
+        default="AUTO",
     )
+    probe_resolution: bpy.props.IntProperty(
+        name="Probe Resolution",
+        description="Cube face size of the captured probe (texels): the size itself (Fixed) "
+                    "or its upper bound (Auto)",
+        default=256, min=0, soft_min=8, soft_max=1024, max=4096,
+    )
+    probe_reason: bpy.props.StringProperty(
+        name="Probe Size Chosen", description="The face size the last capture used, and why")
     capture_engine: bpy.props.EnumProperty(
         name="Engine", description="Render engine used to capture the probe",
         items=[("CYCLES", "Cycles", "Path-traced capture"),
@@ -128,8 +140,20 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
     lobes: bpy.props.IntProperty(name="Lobes", description="Lobes per slice (3D map)",
                                  default=1, min=1, max=4)
-    map_size: bpy.props.IntProperty(name="Map Size", description="Lat-long rows N (N x 2N)",
-                                    default=64, min=0, max=2048)
+    size_mode: bpy.props.EnumProperty(
+        name="Map Size Mode", description="How the baked map's size is chosen",
+        items=[("AUTO", "Auto", "From the lobe's width and the probe's detail (bake.resolution), "
+                                "at most Map Size"),
+               ("FIXED", "Fixed", "Exactly Map Size")],
+        default="AUTO")
+    map_size: bpy.props.IntProperty(
+        name="Map Size",
+        description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
+                    "(Auto; bake time grows with its square)",
+        default=320, min=0, max=2048)
+    chosen_size: bpy.props.IntProperty(name="Baked Size", description="Rows of the last bake")
+    size_reason: bpy.props.StringProperty(
+        name="Size Reason", description="Why the last bake has the size it has")
     bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")

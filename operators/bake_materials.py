@@ -7,12 +7,33 @@ import numpy as np
 
 from ..bake import atlas, exr, prefilter
 from ..bake.errors import BakeError
+from ..bake.progress import run_steps, scaled
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.materials import stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import check_may_write, output_folder
 from ..glossy_addon.progress import BlenderProgress
+
+
+def _scaled(steps, start, stop):
+    """Re-yield a step generator's fractions mapped onto [start, stop]; return its value."""
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield start + (stop - start) * fraction, message
+
+
+def _prefixed(name, steps):
+    """Re-yield a step generator's messages prefixed by the material's name."""
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield fraction, f"{name}: {message}"
 
 
 def _object_with_probe(context):
@@ -64,7 +85,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         for material in _materials(obj):
             settings = material.glossy
             if not 4 <= settings.map_size <= 2048:
-                raise BakeError(f"{material.name}: map size must be in [4, 2048], "
+                kind = "the map size's upper bound" if settings.size_mode == "AUTO" \
+                    else "map size"
+                raise BakeError(f"{material.name}: {kind} must be in [4, 2048], "
                                 f"not {settings.map_size}")
             if not 2 <= settings.slices <= 256:
                 raise BakeError(f"{material.name}: slices must be in [2, 256], "
@@ -77,38 +100,62 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
-    def _bake_one(material, path, probe, meta, probe_path):
+    def _bake_steps(material, path, probe, meta, probe_path):
+        """One material's bake as steps: yields (fraction, message) after the fit, each
+        batch of slices and the diffuse map; writes the files only at the end, so a
+        bake stopped between steps leaves nothing. Returns the step's message."""
         settings = material.glossy
+        layout = meta.get("layout", "cube")
+        auto = settings.size_mode == "AUTO"
+        size = "auto" if auto else settings.map_size
+        max_size = settings.map_size if auto else None
         if settings.method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
-            baked = prefilter.prefilter(probe, settings.brdf_spec(), "split-sum", face,
-                                        layout=meta.get("layout", "cube"))
+            baked = yield from _scaled(prefilter.prefilter_steps(
+                probe, settings.brdf_spec(), "split-sum", face, layout=layout), 0.0, 0.85)
             image, atlas_meta = atlas.pack_split_sum(baked)
+            rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
-            baked = prefilter.prefilter(probe, settings.brdf_spec(), settings.method,
-                                        settings.map_size, slices=settings.slices,
-                                        lobes_count=settings.lobes if settings.method == "3d"
-                                        else 1, layout=meta.get("layout", "cube"))
+            baked = yield from _scaled(prefilter.prefilter_steps(
+                probe, settings.brdf_spec(), settings.method, size, slices=settings.slices,
+                lobes_count=settings.lobes if settings.method == "3d" else 1, layout=layout,
+                max_size=max_size), 0.0, 0.85)
             image, atlas_meta = atlas.pack(baked)
-        atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                           "material": material.name})
-        exr.write(path, image, atlas_meta)  # atomic: never a half-written file
-        settings.bake_path = str(path)
+            rows, reason = baked.meta["size"], baked.meta["size_reason"]
+        diffuse = None
+        diffuse_path = path.with_name(path.stem.rsplit("_", 1)[0] + "_diffuse.exr")
         if any(settings.diffuse):
+            check_may_write(diffuse_path)  # before anything is written
             color = "/".join(f"{c:g}" for c in settings.diffuse)
-            irradiance = prefilter.prefilter(probe, f"lambert:color={color}", "irradiance",
-                                             settings.map_size, layout=meta.get("layout", "cube"))
-            image, diffuse_meta = atlas.pack_irradiance(irradiance)
+            irradiance = yield from _scaled(prefilter.prefilter_steps(
+                probe, f"lambert:color={color}", "irradiance", size, layout=layout,
+                max_size=max_size), 0.85, 0.95)
+            diffuse = atlas.pack_irradiance(irradiance)
+        half = atlas.storage_precision(image) == "half"
+        if not half:
+            reason += "; kept as 32-bit float (brighter than a half float's 65504)"
+        atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
+                           "material": material.name, "size_reason": reason,
+                           "precision": "half" if half else "float32"})
+        exr.write(path, image, atlas_meta, half=half)  # atomic: never a half-written file
+        settings.bake_path = str(path)
+        if diffuse is not None:
+            image, diffuse_meta = diffuse
             diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                                 "material": material.name})
-            diffuse_path = path.with_name(path.stem.rsplit("_", 1)[0] + "_diffuse.exr")
-            check_may_write(diffuse_path)
+                                 "material": material.name, "precision": "float32"})
             exr.write(diffuse_path, image, diffuse_meta)
             settings.diffuse_path = str(diffuse_path)
         else:
             settings.diffuse_path = ""
+        settings.chosen_size = int(rows)
+        settings.size_reason = reason
         settings.bake_hash = bake_inputs_hash(settings, probe_path)
         settings.bake_time = time.time()
+        return f"baked {material.name}: {reason}"
+
+    @classmethod
+    def _bake_one(cls, material, path, probe, meta, probe_path, progress=None):
+        return run_steps(cls._bake_steps(material, path, probe, meta, probe_path), progress)
 
     def execute(self, context):
         try:
@@ -116,7 +163,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             with BlenderProgress(context, "bake materials") as progress:
                 for index, (name, path) in enumerate(todo):
                     progress(index / max(len(todo), 1), f"baking {name}")
-                    self._bake_one(bpy.data.materials[name], path, probe, meta, probe_path)
+                    self._bake_one(bpy.data.materials[name], path, probe, meta, probe_path,
+                                   scaled(progress, index / len(todo), (index + 1) / len(todo)))
+                    progress((index + 1) / len(todo), f"baked {name} "
+                             f"({bpy.data.materials[name].glossy.size_reason})")
                 progress(1.0, f"baked {len(todo)} material(s)")
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
@@ -124,7 +174,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         self.report({"INFO"}, f"Glossy baked {len(todo)} material(s)")
         return {"FINISHED"}
 
-    # UI: one material per timer tick; Esc stops between materials.
+    # UI: one part of a material (the fit, a pair of slices, the diffuse map) per
+    # timer tick; Esc stops within a part and the unfinished material writes nothing.
     progress_title = "bake materials"
 
     def _begin(self, context):
@@ -133,14 +184,15 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
 
     def _run_step(self, context, step):
         name, path = step
-        self._bake_one(bpy.data.materials[name], path, self._probe, self._meta, self._probe_path)
-        return f"baked {name}"
+        return _prefixed(name, self._bake_steps(bpy.data.materials[name], path, self._probe,
+                                                self._meta, self._probe_path))
 
     def _done_message(self):
         return f"Glossy baked {self._done} material(s)"
 
     def _cancel_message(self):
-        return f"Bake cancelled after {self._done} material(s)"
+        return (f"Bake cancelled after {self._done} material(s); the unfinished one wrote "
+                f"nothing")
 
 
 class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
@@ -162,9 +214,12 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 diffuse = None
                 if material.glossy.diffuse_path:
                     _, diffuse_meta = exr.read(material.glossy.diffuse_path)
-                    diffuse = (load_atlas(material.glossy.diffuse_path), diffuse_meta)
+                    diffuse = (load_atlas(material.glossy.diffuse_path,
+                                          precision=diffuse_meta.get("precision", "float32")),
+                               diffuse_meta)
                 stash_original(material)
-                build_lookup(material, load_atlas(path), meta, diffuse,
+                build_lookup(material, load_atlas(path, precision=meta.get("precision", "float32")),
+                             meta, diffuse,
                              material.glossy.fresnel_ior)
                 attached += 1
         except (BakeError, ValueError) as error:

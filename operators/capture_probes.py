@@ -5,7 +5,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr
+from ..bake import envmap, exr, lobes, resolution
 from ..bake.errors import BakeError
 from ..glossy_addon.capture import CubeCapture
 from ..glossy_addon.centres import probe_centre
@@ -19,6 +19,44 @@ MIN_RESOLUTION, MAX_RESOLUTION = 8, 4096
 
 def _targets(context):
     return [obj for obj in context.selected_objects if obj.type == "MESH"]
+
+
+def _lobe_widths(obj):
+    """Widths (rad) of the lobes of the object's Glossy materials, as their bakes fit them
+    (the fits are cached, so the bake that follows does not fit again)."""
+    widths = []
+    for slot in obj.material_slots:
+        material = slot.material
+        if material is None:
+            continue
+        settings = material.glossy
+        mode = settings.method if settings.method in ("3d", "2d") else "3d"
+        try:
+            fit = lobes.fit(settings.brdf_spec(), slices=max(2, settings.slices),
+                            lobes=settings.lobes if mode == "3d" else 1, mode=mode)
+        except (BakeError, ValueError):
+            continue  # a BRDF the bake refuses says so there
+        widths += [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
+                    for s in fit.slices for lobe in s.lobes]
+    return widths
+
+
+def _face_size(context, obj):
+    """(face size, reason) of the object's probe: Fixed, or Auto from its lobes."""
+    settings = obj.glossy
+    size = settings.probe_resolution
+    if not MIN_RESOLUTION <= size <= MAX_RESOLUTION:
+        kind = "maximum probe resolution" if settings.probe_size_mode == "AUTO" \
+            else "probe resolution"
+        raise BakeError(f"{obj.name}: {kind} must be between {MIN_RESOLUTION} "
+                        f"and {MAX_RESOLUTION}, not {size}")
+    if settings.probe_size_mode == "FIXED":
+        return size, f"{size} px faces: set by hand"
+    world_rows = None
+    if settings.probe_source == "WORLD":
+        world_rows = int(find_environment_image(context.scene.world).size[1])
+    choice = resolution.choose_probe_face(_lobe_widths(obj), size, world_rows)
+    return max(MIN_RESOLUTION, choice.value), choice.reason
 
 
 class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
@@ -40,23 +78,23 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
 
     # --- planning ----------------------------------------------------------
     def _plan(self, context):
-        """(object name, centre, settings) per target; raises BakeError on bad settings."""
+        """(object name, centre, settings) per target; raises BakeError on bad settings.
+        The face size and its reason per object go to ``self._faces_chosen``."""
         depsgraph = context.evaluated_depsgraph_get()
+        self._faces_chosen = {}
         plan = []
         for obj in _targets(context):
             settings = obj.glossy
-            size = settings.probe_resolution
-            if not MIN_RESOLUTION <= size <= MAX_RESOLUTION:
-                raise BakeError(f"{obj.name}: probe resolution must be between {MIN_RESOLUTION} "
-                                f"and {MAX_RESOLUTION}, not {size}")
             if settings.clip_end <= settings.clip_start:
                 raise BakeError(f"{obj.name}: clip end must be beyond clip start")
             if settings.probe_source == "WORLD" and \
                     find_environment_image(context.scene.world) is None:
                 raise BakeError(f"{obj.name}: 'World Only' needs an Environment Texture image "
                                 "in the world")
+            face, reason = _face_size(context, obj)
             centre, used = probe_centre(obj, settings.centre_mode, depsgraph)
             plan.append((obj.name, centre, used))
+            self._faces_chosen[obj.name] = (face, reason)
         return plan
 
     def _path(self, folder, name):
@@ -74,8 +112,10 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 "object": name, "centre": [float(c) for c in centre], "centre_mode": used,
                 "source": settings.probe_source, "engine": settings.capture_engine,
                 "samples": settings.capture_samples, "time": time.time()}
+        meta["size_reason"] = self._faces_chosen[name][1]
         exr.write(path, cube, meta)
         settings.probe_path = str(path)
+        settings.probe_reason = self._faces_chosen[name][1]
         settings.probe_centre = tuple(float(c) for c in centre)
         return path
 
@@ -87,7 +127,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         obj = bpy.data.objects[name]
         settings = obj.glossy
         hidden = [obj] if settings.hide_self else []
-        return CubeCapture(context.scene, obj.glossy.probe_centre, settings.probe_resolution,
+        return CubeCapture(context.scene, obj.glossy.probe_centre, self._faces_chosen[name][0],
                            settings.capture_engine, settings.capture_samples,
                            settings.clip_start, settings.clip_end, hidden)
 
@@ -104,7 +144,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                     obj = bpy.data.objects[name]
                     obj.glossy.probe_centre = tuple(float(c) for c in centre)
                     if obj.glossy.probe_source == "WORLD":
-                        result = self._world_cube(context, obj.glossy.probe_resolution)
+                        result = self._world_cube(context, self._faces_chosen[name][0])
                     else:
                         result = []
                         with self._capture(context, name) as capture:
@@ -141,7 +181,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         obj = bpy.data.objects[name]
         obj.glossy.probe_centre = tuple(float(c) for c in centre)
         if face is None:
-            result = self._world_cube(context, obj.glossy.probe_resolution)
+            result = self._world_cube(context, self._faces_chosen[name][0])
         else:
             with self._capture(context, name) as capture:
                 self._faces.setdefault(index, []).append(capture.render_face(face))

@@ -56,6 +56,7 @@ bpy.context.view_layer.update()
 expected = np.array(cone.matrix_world @ Vector((0.0, 0.0, -0.5)))  # base at -1, tip at +1
 
 settings = cone.glossy
+settings.probe_size_mode = "FIXED"  # this checks the capture itself at a known size
 settings.probe_resolution = 16
 settings.capture_samples = 1
 settings.capture_engine = "CYCLES"
@@ -115,5 +116,25 @@ except RuntimeError as error:
 settings.probe_resolution = 16
 bpy.ops.object.select_all(action="DESELECT")
 report["poll_without_mesh"] = bpy.ops.glossy.capture_probes.poll()
+
+# Auto: a sphere with a GGX 0.1 material gets the faces its lobe needs (a face's half
+# texel, 1 / N rad, no wider than the lobe), within the world image's detail and the
+# maximum; the choice and its reason are stored and shown.
+bpy.ops.mesh.primitive_uv_sphere_add(location=(0.0, 3.0, 0.0))
+ball = bpy.context.object
+material = bpy.data.materials.new("Sharp")
+material.glossy.roughness = 0.1
+ball.data.materials.append(material)
+ball.glossy.probe_source = "WORLD"
+ball.glossy.probe_resolution = 4096
+bpy.ops.glossy.capture_probes()
+auto_probe, auto_meta = exr.read(ball.glossy.probe_path)
+report["auto_shape"] = list(auto_probe.shape)
+report["auto_reason"] = ball.glossy.probe_reason
+report["auto_meta_reason"] = auto_meta.get("size_reason")
+ball.glossy.probe_resolution = 64
+bpy.ops.glossy.capture_probes()
+report["auto_capped_shape"] = list(exr.read(ball.glossy.probe_path)[0].shape)
+report["auto_capped_reason"] = ball.glossy.probe_reason
 with open(result_path, "w") as handle:
     json.dump(report, handle, indent=1)

@@ -63,6 +63,28 @@ class Operator(TimerSteps):
         self.reports.append([sorted(kind)[0], message])
 
 
+class PartsOperator(Operator):
+    """Each step is a generator of three parts that 'writes' only after its last part."""
+
+    def __init__(self, steps):
+        super().__init__(steps)
+        self.parts, self.written, self.closed = [], [], []
+
+    def _run_step(self, context, step):
+        def parts():
+            try:
+                for part in range(3):
+                    self.parts.append([step, part])
+                    yield (part + 1) / 3, f"step {step} part {part}"
+                self.written.append(step)
+                return f"step {step} done"
+            except GeneratorExit:
+                self.closed.append(step)
+                raise
+
+        return parts()
+
+
 def context():
     workspace = SimpleNamespace(status_text_set=lambda text: None)
     return SimpleNamespace(window_manager=WindowManager(), window=None, workspace=workspace)
@@ -91,5 +113,9 @@ report = {
     "bad_input": run(Operator(None), [TIMER]),
     "background": run(Operator([1], interactive=False), []),
 }
+for name, events in (("parts_complete", [TIMER] * 8), ("parts_escape", [TIMER] * 5 + [ESC])):
+    operator = PartsOperator([1, 2])
+    report[name] = run(operator, events)
+    report[name].update(parts=operator.parts, written=operator.written, closed=operator.closed)
 with open(sys.argv[1], "w") as handle:
     json.dump(report, handle, indent=1)

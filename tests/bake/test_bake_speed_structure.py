@@ -1,0 +1,141 @@
+"""What makes bakes fast, checked for correctness: shared probe transforms, slices mixed
+from a few filtered ones, steps per slice, the multi-scale filter, and the refusals
+(memory, float16) that keep a fast bake from being a wrong one."""
+
+import numpy as np
+import pytest
+
+from bake import atlas, envmap, lobes, prefilter, probe_maps, slice_basis
+from bake.errors import BakeError
+from bake.zonal import brute_force_convolve, zonal_convolve
+
+LATLONG = envmap.get_layout("latlong")
+
+
+@pytest.fixture(scope="module")
+def probe(forest):
+    return envmap.convert(forest, "latlong", "cube", 32)
+
+
+def relative_rms(a, b):
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def test_materials_of_one_probe_share_its_conversions_and_transforms(probe):
+    """Three materials, then the same three again: the probe's lat-long maps and row
+    spectra are made once per row count, and a second bake of the same probe content
+    (another array with equal values) makes none."""
+    probe_maps.clear_cache()
+    specs = ["ggx:roughness=0.3", "ggx:roughness=0.5", "beckmann:roughness=0.4"]
+    for spec in specs:
+        prefilter.prefilter(probe, spec, "3d", "auto", slices=4)
+    maps = probe_maps.probe_maps(probe, "cube")
+    first = dict(maps.computed)
+    assert first["maps"] == first["spectra"] == len(maps._maps)
+    for spec in specs:
+        prefilter.prefilter(probe.copy(), spec, "3d", "auto", slices=4)
+    assert probe_maps.probe_maps(probe.copy(), "cube") is maps
+    assert maps.computed == first
+
+
+def test_a_bake_steps_after_the_fit_and_each_pair_of_slices(probe):
+    steps = prefilter.prefilter_steps(probe, "ggx:roughness=0.4", "3d", 32, slices=6,
+                                      threads=2)
+    messages = []
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            baked = done.value
+            break
+        messages.append((fraction, message))
+    filtered = len(baked.meta["filtered_slices"])
+    assert messages[0][1] == "fitted the lobes"
+    assert sum(m.startswith("filtered slice") for _, m in messages) == -(-filtered // 2)
+    fractions = [f for f, _ in messages]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert len(baked.layers) == 6
+
+
+def test_mixed_slices_match_filtering_every_slice(probe):
+    """Slices made as mixes of filtered slices against each slice filtered on its own:
+    within the mix tolerance (0.5% of the lobe's energy misplaced, a bound on the
+    relative error for a non-negative environment)."""
+    spec = "ggx:roughness=0.2"
+    fit = lobes.fit(spec, slices=16)
+    profiles = [s.lobes[0].profile for s in fit.slices]
+    chosen, mixes, errors = slice_basis.choose(profiles, lobes.GAMMA)
+    assert len(chosen) < len(profiles) and errors.max() <= slice_basis.TOLERANCE
+    np.testing.assert_allclose(mixes.sum(axis=1), 1.0, atol=1e-12)  # energy kept
+    baked = prefilter.prefilter(probe, fit, "3d", 48)
+    maps = probe_maps.probe_maps(probe, "cube")
+    for k in range(0, 16, 3):
+        lobe = fit.slices[k].lobes[0]
+        direct = prefilter._filter(maps, prefilter._profile_kernel(lobe.profile), 48)
+        direct = direct * np.asarray(lobe.weight, dtype=np.float32)
+        assert relative_rms(baked.layers[f"slice.{k}"], direct) < slice_basis.TOLERANCE, k
+
+
+def test_multiscale_filter_matches_the_brute_force_sum_for_a_heavy_tailed_lobe(probe):
+    """GGX 0.1's lobe (narrow core, tail across the sphere) on a 64-row map: tiers of
+    annuli on grids halving in rows against the all-pairs sum over the same working
+    map's texels (integrated 4 x 4 per texel): < 1% relative RMS."""
+    fit = lobes.fit("ggx:roughness=0.1", slices=2)
+    kernel = prefilter._profile_kernel(fit.slices[-1].lobes[0].profile)
+    maps = probe_maps.probe_maps(probe, "cube")
+    rows = 64
+    ours = prefilter._filter(maps, kernel, rows)
+    work = maps.latlong(rows)
+    fine_shape = (4 * rows, 8 * rows)
+    fine = LATLONG.sampler(work, spacing=None)(LATLONG.texel_directions(fine_shape))
+    # The working map as texel boxes: each texel's value over its 4 x 4 sub-texels.
+    boxes = np.repeat(np.repeat(work, 4, axis=0), 4, axis=1)
+    del fine
+    rng = np.random.default_rng(3)
+    picks = rng.choice(rows * 2 * rows, 300, replace=False)
+    r, c = np.unravel_index(picks, (rows, 2 * rows))
+    targets = LATLONG.texel_directions((rows, 2 * rows))[r, c]
+    reference = brute_force_convolve(LATLONG.texel_directions(fine_shape).reshape(-1, 3),
+                                     boxes.reshape(-1, 3).astype(np.float64),
+                                     LATLONG.solid_angles(fine_shape).reshape(-1), kernel,
+                                     targets)
+    assert relative_rms(ours[r, c], reference) < 0.01
+
+
+def test_sub_sampling_near_the_centre_only_matches_sub_sampling_everywhere(probe):
+    maps = probe_maps.probe_maps(probe, "cube")
+    fit = lobes.fit("ggx:roughness=0.15", slices=2)
+    kernel = prefilter._profile_kernel(fit.slices[-1].lobes[0].profile)
+    work = maps.latlong(48)
+    everywhere = zonal_convolve(work, kernel, supersample=3)
+    near = zonal_convolve(work, kernel, supersample=3, supersample_radius=0.15)
+    assert relative_rms(near, everywhere) < 2e-3
+
+
+def test_a_map_beyond_memory_is_refused_before_anything_is_allocated(probe, monkeypatch):
+    monkeypatch.setattr(prefilter, "available_memory", lambda: 2**30)
+    with pytest.raises(BakeError, match=r"needs about [0-9.]+ GiB; 1\.0 GiB is available"):
+        prefilter.prefilter(probe, "ggx:roughness=0.3", "3d", 2048, slices=16)
+    assert prefilter.bake_memory(2048, 16) > 2**30
+
+
+def test_a_probe_brighter_than_half_floats_keeps_a_32_bit_map(probe):
+    """A sun of 1e6 (sunset-like HDRIs reach 1e5): the atlas holds values beyond 65504,
+    so it is stored as 32-bit float, and the value survives; an ordinary one is half."""
+    bright = probe.copy()
+    bright[16, 16] = 1e6
+    baked = prefilter.prefilter(bright, "ggx:roughness=0.05", "3d", 32, slices=3)
+    image, _ = atlas.pack(baked)
+    assert np.abs(image).max() > atlas.HALF_MAX and np.all(np.isfinite(image))
+    assert atlas.storage_precision(image) == "float32"
+    ordinary, _ = atlas.pack(prefilter.prefilter(probe, "ggx:roughness=0.3", "3d", 32,
+                                                 slices=3))
+    assert atlas.storage_precision(ordinary) == "half"
+
+
+def test_auto_refuses_split_sum_and_reports_its_choice(probe):
+    with pytest.raises(BakeError, match="needs a face size"):
+        prefilter.prefilter(probe, "ggx:roughness=0.3", "split-sum", "auto")
+    baked = prefilter.prefilter(probe, "ggx:roughness=0.3", "3d", "auto", slices=4,
+                                max_size=24)
+    assert baked.meta["size"] == 24 and "Max Map Size" in baked.meta["size_reason"]
