@@ -20,7 +20,8 @@ Prints, in one run:
    error on isolated-sphere pixels against the brute-force integral of the
    true BRDF over the probe's bilinear reconstruction, beside the previous
    path (benchmarks/legacy_prefilter.py, 16 slices of 256x128 as the issue
-   measured) timed and measured in the same run (target: < 3 s);
+   measured) timed and measured in the same run (target: < 3 s); "step s"
+   is the longest step (one UI timer tick: how long Esc can wait);
 6. eight materials baked from one probe in one session against the mean
    of their single cold bakes (target: less than 3x).
 
@@ -279,13 +280,26 @@ def full_3d_map(forest):
 DIELECTRIC = ("ggx:roughness=0.5", "0.8/0.8/0.8")  # Principled's defaults: roughness 0.5
 
 
-def bake_like_blender(probe, spec, diffuse=None, folder=None):
-    """What glossy.bake_materials does for one material at Auto size: (seconds, meta)."""
+def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None):
+    """What glossy.bake_materials does for one material at Auto size: (seconds, baked).
+    ``steps``: a list that receives the duration of each step (a UI timer tick)."""
     start = time.perf_counter()
-    baked = prefilter.prefilter(probe, spec, "3d", "auto", layout="cube")
+    generator = prefilter.prefilter_steps(probe, spec, "3d", "auto", layout="cube")
+    tick = time.perf_counter()
+    while True:
+        try:
+            next(generator)
+        except StopIteration as done:
+            baked = done.value
+            break
+        if steps is not None:
+            steps.append(time.perf_counter() - tick)
+        tick = time.perf_counter()
     image, meta = atlas.pack(baked)
     exr.write(folder / "glossy.exr", image, meta,
               half=atlas.storage_precision(image) == "half")
+    if steps is not None:  # the last step: packing and writing
+        steps.append(time.perf_counter() - tick)
     if diffuse:
         irradiance = prefilter.prefilter(probe, f"lambert:color={diffuse}", "irradiance",
                                          "auto", layout="cube")
@@ -310,14 +324,15 @@ def auto_bakes(quick):
           f"pack, write; caches cold); error on {len(normals)} sphere pixels against the "
           f"brute-force integral over the probe's reconstruction; previous path: 16 slices "
           f"of 256x128:")
-    print(f"   {'material':28s} {'Auto s':>7s} {'rows':>5s} {'error':>7s}   "
+    print(f"   {'material':28s} {'Auto s':>7s} {'step s':>6s} {'rows':>5s} {'error':>7s}   "
           f"{'previous s':>10s} {'error':>7s} {'speed-up':>8s}")
     cases = [(f"ggx:roughness={r}", None) for r in (0.05, 0.1, 0.3, 0.6, 1.0)]
     cases.append(DIELECTRIC)
     with tempfile.TemporaryDirectory() as tmp:
         for spec, diffuse in cases:
             cold()
-            elapsed, baked = bake_like_blender(probe, spec, diffuse, Path(tmp))
+            steps = []
+            elapsed, baked = bake_like_blender(probe, spec, diffuse, Path(tmp), steps)
             model = brdf.parse(spec)
             truth = reflected_radiance(model, fine, "cube", normals, views)
             error = relative_rms(baked.shade(normals, views), truth)
@@ -328,7 +343,8 @@ def auto_bakes(quick):
             old_map = prefilter.BakedMap("3d", old, {**baked.meta, "size": 128})
             old_error = relative_rms(old_map.shade(normals, views), truth)
             label = spec + (f" + diffuse {diffuse}" if diffuse else "")
-            print(f"   {label:28s} {elapsed:7.2f} {baked.meta['size']:5d} {error:7.4f}   "
+            print(f"   {label:28s} {elapsed:7.2f} {max(steps):6.2f} {baked.meta['size']:5d} "
+                  f"{error:7.4f}   "
                   f"{old_time:10.2f} {old_error:7.4f} {old_time / elapsed:7.1f}x   "
                   f"[{baked.meta['size_reason']}]", flush=True)
             if diffuse:

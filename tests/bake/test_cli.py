@@ -161,6 +161,9 @@ def test_fit_and_prefilter_commands(tmp_path, hdri_dir):
     (["--brdf", "ggx:roughness=0.3", "--size", "16", "--mode", "split-sum", "--levels", "9"],
      "levels must be"),
     (["--brdf", "ggx:roughnes=0.3", "--size", "16"], "unknown key"),
+    (["--brdf", "ggx:roughness=0.3", "--size", "big"], "must be a whole number or 'auto'"),
+    (["--brdf", "ggx:roughness=0.3", "--mode", "split-sum"], "needs a face size"),
+    (["--brdf", "ggx:roughness=0.3", "--size", "2048", "--slices", "256"], "GiB"),
 ])
 def test_prefilter_bad_input_is_one_line_and_no_file(tmp_path, hdri_dir, args, message):
     out = tmp_path / "bad.exr"
@@ -168,6 +171,18 @@ def test_prefilter_bad_input_is_one_line_and_no_file(tmp_path, hdri_dir, args, m
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2 and len(lines) == 1 and message in lines[0]
     assert not out.exists() and not out.with_suffix(".json").exists()
+
+
+def test_prefilter_auto_size_is_the_default_and_says_why(tmp_path, hdri_dir):
+    out = tmp_path / "auto.exr"
+    result = run_bake("prefilter", hdri_dir / "forest.exr", "--brdf", "ggx:roughness=0.6",
+                      "--slices", "4", "--max-size", "64", "-o", out, "-q")
+    assert result.returncode == 0, result.stderr
+    from bake import prefilter
+
+    baked = prefilter.load(out)
+    assert baked.meta["size"] <= 64 and baked.meta["size_reason"] in result.stdout
+    assert baked.meta["size_reason"].startswith(f"{baked.meta['size']} rows")
 
 
 def test_prefilter_refuses_a_nan_probe(tmp_path):

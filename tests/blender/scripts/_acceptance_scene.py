@@ -114,7 +114,9 @@ def render_views(workdir, size=96):
             "origin": list(obj.matrix_world.translation),
             "probe": bpy.path.abspath(obj.glossy.probe_path),
             "bake": {"spec": settings.brdf_spec(), "method": settings.method,
-                     "size": settings.map_size, "slices": settings.slices,
+                     "size": settings.chosen_size, "size_mode": settings.size_mode,
+                     "max_size": settings.map_size, "size_reason": settings.size_reason,
+                     "slices": settings.slices,
                      "lobes": settings.lobes if settings.method == "3d" else 1},
         }
 

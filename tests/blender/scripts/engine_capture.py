@@ -41,6 +41,7 @@ for name, source, engine in (("cycles", "RENDER", "CYCLES"),
     obj.hide_render = True  # none of the cubes shows in another's capture
     settings = obj.glossy
     settings.probe_source, settings.capture_engine = source, engine
+    settings.probe_size_mode = "FIXED"  # compared with the world at a known size
     settings.probe_resolution = 32
     settings.capture_samples = 16
     settings.centre_mode = "ORIGIN"
