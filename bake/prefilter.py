@@ -54,7 +54,7 @@ PRESETS = {
 }
 MAX_SIZE = 2048
 #: Upper bound of an Auto size when none is given (the Blender default too).
-DEFAULT_MAX_SIZE = 320
+DEFAULT_MAX_SIZE = 256
 FORMAT = 1
 
 
@@ -562,6 +562,15 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
         return _filter(maps, _profile_kernel(fit.slices[k].lobes[j].profile), size,
                        halves[jobs[index]])
 
+    # The probe's working maps and spectra (shared, cached) as a step of their own,
+    # so each later step is one batch of filtering.
+    work_rows = sorted({filter_rows(halves[jobs[i]], size) for i in chosen}, reverse=True)
+    for rows in work_rows:
+        while rows >= resolution.MIN_ROWS:
+            maps.spectrum(rows)
+            rows //= 2
+    yield 0.15, f"probe maps at {', '.join(map(str, work_rows))} rows"
+
     filtered = {}
     # Chosen slices are independent; NumPy's FFTs and products release the GIL,
     # so two threads use both cores. One step per batch of ``threads`` slices.
@@ -571,7 +580,7 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
             for index, layer in zip(batch, pool.map(job, batch), strict=True):
                 filtered[index] = layer
             done = start + len(batch)
-            yield 0.1 + 0.85 * done / len(chosen), f"filtered slice {done}/{len(chosen)} " \
+            yield 0.15 + 0.8 * done / len(chosen), f"filtered slice {done}/{len(chosen)} " \
                                                    f"({size} rows)"
     layers = {}
     stack = np.stack([filtered[i] for i in chosen])  # (r, H, W, 3)

@@ -150,7 +150,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Map Size",
         description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
                     "(Auto; bake time grows with its square)",
-        default=320, min=0, max=2048)
+        default=256, min=0, max=2048)
     chosen_size: bpy.props.IntProperty(name="Baked Size", description="Rows of the last bake")
     size_reason: bpy.props.StringProperty(
         name="Size Reason", description="Why the last bake has the size it has")
