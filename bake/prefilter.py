@@ -559,8 +559,9 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
 
     def job(index):
         k, j = jobs[index]
-        return _filter(maps, _profile_kernel(fit.slices[k].lobes[j].profile), size,
-                       halves[jobs[index]])
+        profile = fit.slices[k].lobes[j].profile
+        return maps.filtered(profile, size, lambda: _filter(maps, _profile_kernel(profile),
+                                                            size, halves[jobs[index]]))
 
     # The probe's working maps and spectra (shared, cached) as a step of their own,
     # so each later step is one batch of filtering.
@@ -590,7 +591,7 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
             else filtered[row]
         lobe = fit.slices[k].lobes[j]
         if mode == "2d":
-            layers[""] = layer
+            layers[""] = layer.copy()  # the filtered map may be shared (ProbeMaps.filtered)
         else:
             weight = np.asarray(lobe.weight, dtype=np.float32)
             layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer * weight
@@ -643,7 +644,10 @@ def _irradiance(maps, model, image, probe_layout, size, max_size, method):
     check_memory(size, 1)
     meta = _base_meta("irradiance", model, probe_layout, image.shape, size)
     if method == "direct":
-        irradiance = _filter(maps, irradiance_kernel, size, half)
+        # White irradiance, shared by every material's diffuse part (colour is applied
+        # when the atlas is packed).
+        irradiance = maps.filtered(irradiance_kernel(np.cos(lobes.GAMMA)), size,
+                                   lambda: _filter(maps, irradiance_kernel, size, half)).copy()
     elif method == "sh":
         work = maps.latlong(size)
         coefficients = sh.project(work, "latlong")

@@ -5,7 +5,8 @@ lat-long images (at the few row counts the lobes need), and zonal filtering
 needs only their per-row longitude spectra (bake.zonal.row_spectrum). A
 :class:`ProbeMaps` converts the probe to each row count once, from an exact
 2x2 box MIP pyramid of the probe (so a small map is cheap to make and does
-not alias), and keeps the conversions and their spectra. :func:`probe_maps`
+not alias), and keeps the conversions and their spectra, and the maps it
+was filtered into per lobe shape and size. :func:`probe_maps`
 returns the same object for the same probe content in one process, so the
 transforms are shared between the materials of a bake and between bakes of
 an unchanged probe in a Blender session.
@@ -27,6 +28,8 @@ __all__ = ["ProbeMaps", "probe_maps", "resample_rows", "clear_cache"]
 
 #: Probes kept in the process-wide cache (least recently used dropped first).
 CACHE_PROBES = 3
+#: Bytes of filtered lobe maps kept per probe (ProbeMaps.filtered).
+FILTERED_BYTES = 256 << 20
 _cache: "OrderedDict[tuple, ProbeMaps]" = OrderedDict()
 _cache_lock = threading.Lock()
 
@@ -49,8 +52,11 @@ class ProbeMaps:
         self._spectra: dict = {}
         self._lock = threading.Lock()
         self._row_locks: dict = {}
-        #: How many conversions and transforms were computed (for tests and benchmarks).
-        self.computed = {"maps": 0, "spectra": 0}
+        self._filtered: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._filtered_bytes = 0
+        #: How many conversions, transforms and lobe filterings were computed, and
+        #: how many filterings were reused (for tests and benchmarks).
+        self.computed = {"maps": 0, "spectra": 0, "filtered": 0, "reused": 0}
 
     def convert(self, layout, size):
         """The probe in ``layout`` at ``size``, from the finest pyramid level needed."""
@@ -90,6 +96,37 @@ class ProbeMaps:
                 self._spectra[rows] = row_spectrum(image)
                 self.computed["spectra"] += 1
             return self._spectra[rows]
+
+
+    def filtered(self, profile, rows: int, compute):
+        """The probe filtered by a lobe of this profile at ``rows`` rows: ``compute()`` the
+        first time, the kept result after (for another material or bake with the same
+        lobe shape, e.g. the same roughness in another colour).
+
+        profile: the lobe's unit-integral profile (bake.lobes.GAMMA nodes); it is
+        keyed after rounding to 9 significant digits of its peak, so profiles equal
+        up to floating-point noise share one map. Results are kept up to
+        FILTERED_BYTES (least recently used dropped first); do not modify them.
+        """
+        profile = np.asarray(profile, dtype=np.float64)
+        scale = float(np.abs(profile).max()) or 1.0
+        key = (hashlib.blake2b(np.round(profile / scale, 9).tobytes(), digest_size=16)
+               .hexdigest(), f"{scale:.9g}", int(rows))
+        with self._lock:
+            if key in self._filtered:
+                self._filtered.move_to_end(key)
+                self.computed["reused"] += 1
+                return self._filtered[key]
+        result = compute()
+        with self._lock:
+            if key not in self._filtered:
+                self._filtered[key] = result
+                self._filtered_bytes += result.nbytes
+                self.computed["filtered"] += 1
+            while self._filtered_bytes > FILTERED_BYTES and len(self._filtered) > 1:
+                _, dropped = self._filtered.popitem(last=False)
+                self._filtered_bytes -= dropped.nbytes
+            return self._filtered[key]
 
 
 def _digest(image, layout):
