@@ -21,13 +21,16 @@ The constant comes from the curve `benchmarks/resolution_curve.py` measures:
 the relative RMS error of a 3D map's lookup against the brute-force
 integral of the true BRDF over the probe's bilinear reconstruction, on
 isolated-sphere pixels in sunset.exr (its sun is the hardest case), as the
-rows grow. GGX 0.1 from a 32-px cube probe: 0.104 / 0.079 / 0.042 / 0.042 /
-0.038 at 152 / 200 / 300 / 400 / 600 rows (the rule gives 304); from a
-64-px probe: 0.064 / 0.040 / 0.027 at 256 / 384 / 512 (rule: 560); GGX 0.2
-from a 64-px probe: 0.028 / 0.015 / 0.017 / 0.014 at 152 / 192 / 256 / 384
-(rule: 232). The error is flat once w_eff spans about 3 texels, so
-TEXELS_PER_HALF_WIDTH = 3: at Auto, doubling the rows changes the error by
-under 1.2x (tests/bake/test_resolution.py asserts it at GGX 0.1).
+rows grow. GGX 0.1 from a 32-px cube probe: 0.071 / 0.042 / 0.048 / 0.038 /
+0.034 / 0.036 / 0.033 at 200 / 304 / 352 / 400 / 608 / 704 / 800 rows. With
+the filter's earlier sub-sampling settings: GGX 0.1 from a 64-px probe 0.064 /
+0.040 / 0.027 at 256 / 384 / 512; GGX 0.2 from a 64-px probe 0.028 / 0.015 /
+0.017 / 0.014 at 152 / 192 / 256 / 384 (the probe term's support). The error
+falls steeply until w_eff spans about 3 texels and then wanders within
+about 15% (the sun's alignment with the texel grid), so
+TEXELS_PER_HALF_WIDTH = 4 (400 rows for the 32-px case): at Auto, doubling
+the rows changes the error by less than 1.2x (1.14x there;
+tests/bake/test_resolution.py asserts it at GGX 0.1).
 
 The probe face a lobe needs: the face whose half texel is no wider than the
 lobe (then the lobe, not the probe, sets the map); a world-only probe is
@@ -45,7 +48,7 @@ __all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "lobe_half_width", "effective_ha
            "latlong_detail_rows",
            "rows_for_half_width", "Choice", "choose_map_rows", "choose_probe_face"]
 
-TEXELS_PER_HALF_WIDTH = 3.0
+TEXELS_PER_HALF_WIDTH = 4.0
 MIN_ROWS = 16
 
 

