@@ -11,6 +11,7 @@ repo, workdir, hdri, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.arg
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
+from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 
@@ -71,6 +72,11 @@ report["attach"] = sorted(bpy.ops.glossy.attach_materials())
 types = sorted({node.type for node in material.node_tree.nodes})
 report["node_types"] = types
 report["image_taps"] = sum(node.type == "TEX_IMAGE" for node in material.node_tree.nodes)
+tapped = next(n.image for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+report["atlas_precision"] = exr.read(material.glossy.bake_path)[1]["precision"]
+report["atlas_use_half_precision"] = tapped.use_half_precision
+report["size_reason"] = material.glossy.size_reason
+report["chosen_size"] = material.glossy.chosen_size
 material.glossy.map_size = 0
 try:
     bpy.ops.glossy.bake_materials()
