@@ -27,7 +27,7 @@ from .envmap import get_layout
 from .errors import BakeError
 from .progress import report
 
-__all__ = ["zonal_convolve", "kernel_integral", "brute_force_convolve"]
+__all__ = ["zonal_convolve", "apply_row_kernels", "kernel_integral", "brute_force_convolve"]
 
 #: Output rows processed together (bounds the kernel spectrum's memory).
 _ROW_CHUNK_BYTES = 1 << 27
@@ -170,6 +170,29 @@ class _SubGrid:
         return weights[:, :, 0, :, 0].astype(np.float64)
 
 
+def apply_row_kernels(half_weights, band_spectrum, width, target=None):
+    """Output rows from per-row kernels over an input band, by circular convolution.
+
+    half_weights: (A, B, W // 2 + 1) kernel weights of A output rows over B
+    input rows at longitude offsets 0..W/2 (the kernel is even in longitude:
+    the other half is mirrored here); band_spectrum: (B, W // 2 + 1, C)
+    row spectra of those input rows; target: the kernel's exact integral, to
+    which each output row's weights are rescaled (None: no rescaling).
+    Returns (A, W, C) float32: for every frequency a (rows x band) by
+    (band x channels) product (batched BLAS), then the inverse transform.
+    """
+    weights = np.concatenate([half_weights,
+                              half_weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
+    if target is not None:
+        totals = weights.sum(axis=(1, 2))
+        scale = np.where(totals > 0, target / np.where(totals > 0, totals, 1.0), 0.0)
+        weights *= scale[:, None, None]
+    kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, B, F)
+    combined = np.matmul(kernel_spectrum.transpose(2, 0, 1),
+                         band_spectrum.transpose(1, 0, 2)).transpose(1, 0, 2)
+    return np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
+
+
 def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, normalize=True,
                    progress=None, spectrum=None, supersample_radius=None):
     """Convolve a lat-long image (H, W, C) with a zonal kernel.
@@ -252,17 +275,7 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
         if cols < half:
             weights = np.concatenate(
                 [weights, np.zeros((*weights.shape[:2], half - cols))], axis=2)
-        weights = np.concatenate([weights, weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
-        if normalize:
-            totals = weights.sum(axis=(1, 2))
-            scale = np.where(totals > 0, target / np.where(totals > 0, totals, 1.0), 0.0)
-            weights *= scale[:, None, None]
-        kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, H, F)
-        # Sum over input rows b for every frequency: (A, H, F) x (H, F, C) -> (A, F, C).
-        # Per frequency, a (rows x band) by (band x channels) product: batched BLAS.
-        combined = np.matmul(kernel_spectrum.transpose(2, 0, 1),
-                             spectrum[b0:b1].transpose(1, 0, 2)).transpose(1, 0, 2)
-        out[start:stop] = np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
+        out[start:stop] = apply_row_kernels(weights, spectrum[b0:b1], width, target)
         report(progress, stop / out_height, f"convolving rows {stop}/{out_height}")
     return out
 

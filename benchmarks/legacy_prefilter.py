@@ -5,7 +5,8 @@ the 3D map's slices each filtered by the previous zonal convolution (full
 working resolution, kernel integrated over every input texel, heavy tails
 on a coarse copy only when the core is small against the map), with the
 probe converted to lat-long at the map's size. Copied from bake/zonal.py and
-bake/prefilter.py at commit 5f1b839; not used by Glossy itself.
+bake/prefilter.py at commit 5f1b839 (what did not change is imported, not
+copied: zonal.apply_row_kernels, prefilter._half_width); not used by Glossy.
 """
 
 import math
@@ -15,7 +16,8 @@ import numpy as np
 from bake import lobes
 from bake.envmap import convert, get_layout
 from bake.errors import BakeError
-from bake.zonal import _rows, _Table, kernel_integral, suggested_supersample
+from bake.prefilter import _half_width
+from bake.zonal import _rows, _Table, apply_row_kernels, kernel_integral, suggested_supersample
 
 _ROW_CHUNK_BYTES = 1 << 27
 
@@ -84,30 +86,9 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
             weights = weights.sum(axis=(2, 4), dtype=np.float64)  # (A, H, W/2+1)
         else:
             weights = weights[:, :, 0, :, 0].astype(np.float64)
-        weights = np.concatenate([weights, weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
-        if normalize:
-            totals = weights.sum(axis=(1, 2))
-            scale = np.where(totals > 0, target / np.where(totals > 0, totals, 1.0), 0.0)
-            weights *= scale[:, None, None]
-        kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, H, F)
-        # Sum over input rows b for every frequency: (A, H, F) x (H, F, C) -> (A, F, C).
-        # Per frequency, a (rows x band) by (band x channels) product: batched BLAS.
-        combined = np.matmul(kernel_spectrum.transpose(2, 0, 1),
-                             spectrum[b0:b1].transpose(1, 0, 2)).transpose(1, 0, 2)
-        out[start:stop] = np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
+        out[start:stop] = apply_row_kernels(weights, spectrum[b0:b1], width, target)
     del freqs
     return out
-
-
-def _half_width(kernel):
-    """Angle (rad) at which a kernel falls to half its value at gamma = 0 (rough width)."""
-    gamma = np.linspace(0.0, np.pi, 4097)
-    values = kernel(np.cos(gamma))
-    peak = values.max()
-    if peak <= 0:
-        return np.pi
-    below = np.nonzero(values < 0.5 * peak)[0]
-    return float(gamma[below[0]]) if below.size else np.pi
 
 
 def _filter(work, kernel):
