@@ -191,6 +191,57 @@ def cmd_prefilter(args, mode=None):
           f"{'; ' + reason if reason else ''}) and {output.with_suffix('.json')}")
 
 
+def cmd_reference(args):
+    from . import brdf, reference
+
+    output = _check_output(args.output)
+    model = brdf.parse(args.brdf)
+    probe, meta = _read_rgb(args.input, args.sanitize)
+    layout = args.source or _guess_layout(probe.shape[:2], meta, args.input)
+    if args.buffers:
+        layers, _ = exr.read(args.buffers, layers=True)
+        normals = reference.vector_layer(layers, "normal", args.buffers)
+        if reference.has_layer(layers, "view"):
+            views = reference.vector_layer(layers, "view", args.buffers)
+        else:
+            if args.camera is None:
+                raise BakeError(f"{args.buffers}: no 'view' layer; give --camera X,Y,Z to "
+                                f"compute views from its 'position' layer")
+            positions = reference.vector_layer(layers, "position", args.buffers)
+            views = np.asarray(args.camera) - positions
+        length = np.linalg.norm(normals, axis=-1)
+        mask = (length > 0.5) & (np.linalg.norm(views, axis=-1) > 0)
+        normals = normals / np.where(length > 0, length, 1.0)[..., None]
+        views = views / np.maximum(np.linalg.norm(views, axis=-1, keepdims=True), 1e-30)
+        source = {"buffers": Path(args.buffers).name, "camera": args.camera}
+    else:
+        normals, views, mask = reference.sphere_buffers(args.sphere, args.distance, args.lens)
+        source = {"sphere": args.sphere, "distance": args.distance, "lens_mm": args.lens}
+    pixels = int(mask.sum())
+    if not pixels:
+        raise BakeError("no pixel to render: the buffers hold no surface")
+    progress = None if args.quiet else LinePrinter()
+    radiance = reference.render(model, probe, layout, normals[mask], views[mask],
+                                tolerance=args.tolerance, progress=progress)
+    image = np.zeros((*mask.shape, 4), dtype=np.float32)
+    image[mask, :3] = radiance
+    image[mask, 3] = 1.0
+    exr.write(output, image, _meta(args, layout, probe.shape[:2], {
+        "kind": "reference", "brdf": model.spec, "probe": Path(args.input).name,
+        "pixels": pixels, "tolerance": args.tolerance, **source}))
+    print(f"wrote {output} ({pixels} pixels, {model.spec} against {Path(args.input).name})")
+
+
+def _vector(text):
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise argparse.ArgumentTypeError(f"must be three numbers X,Y,Z, not {text!r}")
+    return values
+
+
 def _size_or_auto(text):
     if text == "auto":
         return "auto"
@@ -273,6 +324,31 @@ def _build_parser():
     p = commands.add_parser("irradiance", help="diffuse irradiance map of a probe")
     _add_prefilter_options(p, with_brdf=False)
     p.set_defaults(run=lambda args: cmd_prefilter(args, "irradiance"))
+
+    p = commands.add_parser("reference", help="brute-force render of the true BRDF lit by "
+                                              "a probe (the distant-lighting truth)")
+    p.add_argument("input", help="probe EXR (any layout)")
+    p.add_argument("--brdf", required=True, help="BRDF spec (any of bake.brdf)")
+    p.add_argument("--from", dest="source", choices=layouts,
+                   help="probe layout (default: from metadata or shape)")
+    where = p.add_mutually_exclusive_group(required=True)
+    where.add_argument("--sphere", type=int, metavar="SIZE",
+                       help="an analytic unit sphere, SIZE x SIZE pixels, seen from "
+                            "(0, -distance, 0) along +Y")
+    where.add_argument("--buffers", metavar="EXR",
+                       help="render passes: a 'normal' layer (world space) and a 'view' layer "
+                            "(surface to viewer) or a 'position' layer with --camera")
+    p.add_argument("--camera", type=_vector, help="camera position X,Y,Z (with 'position')")
+    p.add_argument("--distance", type=float, default=6.0, help="sphere: camera distance")
+    p.add_argument("--lens", type=float, default=90.0, help="sphere: focal length (mm, 36 mm "
+                                                            "sensor)")
+    p.add_argument("--tolerance", type=float, default=None,
+                   help="relative error budget per block (default: bake.reference's; 0 = "
+                        "every texel)")
+    p.add_argument("-o", "--output", required=True, help="output EXR (RGBA, A = surface)")
+    p.add_argument("--sanitize", action="store_true", help="replace NaN/inf probe texels")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_reference)
 
     p = commands.add_parser("brdf", help="describe a BRDF spec; --plot draws it")
     p.add_argument("spec", help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")
