@@ -127,7 +127,36 @@ class GLOSSY_PT_material(bpy.types.Panel):
         row.operator("glossy.attach_materials", icon="NODETREE")
         if settings.original is not None:
             layout.label(text=f"Original kept as '{settings.original.name}'", icon="MATERIAL")
+        if settings.validation_date:
+            stale = settings.validation_bake_hash != settings.bake_hash
+            box = layout.box()
+            box.label(text=f"Validated {settings.validation_date}"
+                      + (" (STALE: re-baked since)" if stale else ""),
+                      icon="ERROR" if stale else "CHECKMARK")
+            truth = "Cycles" if settings.validation_truth == "cycles" else "NumPy reference"
+            box.label(text=f"Glossy vs {truth}: {100 * settings.validation_error:.1f}% RMS")
+            if settings.validation_native_error >= 0:
+                box.label(text=f"EEVEE native: {100 * settings.validation_native_error:.1f}% RMS")
 
 
-classes = (GLOSSY_PT_environment, GLOSSY_PT_probe, GLOSSY_PT_material)
+class GLOSSY_PT_validate(bpy.types.Panel):
+    bl_label = "Validate"
+    bl_idname = "GLOSSY_PT_validate"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Glossy"
+
+    def draw(self, context):
+        settings = context.scene.glossy
+        layout = self.layout
+        column = layout.column(align=True)
+        column.prop(settings, "validate_resolution")
+        column.prop(settings, "validate_samples")
+        column.prop(settings, "validate_eevee_samples")
+        layout.operator("glossy.validate", icon="CHECKMARK")
+        if settings.last_report:
+            layout.label(text=settings.last_report, icon="FILE_TEXT")
+
+
+classes = (GLOSSY_PT_environment, GLOSSY_PT_probe, GLOSSY_PT_material, GLOSSY_PT_validate)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -36,6 +36,17 @@ class GlossySceneSettings(bpy.types.PropertyGroup):
     last_export: bpy.props.StringProperty(
         name="Last Export", description="File written by the last export", subtype="FILE_PATH"
     )
+    validate_resolution: bpy.props.IntProperty(
+        name="Resolution", description="Longer side of the validation renders (pixels; the "
+        "scene's aspect ratio is kept)", default=128, min=16, soft_max=1024, max=4096)
+    validate_samples: bpy.props.IntProperty(
+        name="Cycles Samples", description="Samples of each of the two Cycles reference renders",
+        default=256, min=1, max=65536)
+    validate_eevee_samples: bpy.props.IntProperty(
+        name="EEVEE Samples", description="EEVEE render samples (native and Glossy)",
+        default=16, min=1, max=4096)
+    last_report: bpy.props.StringProperty(
+        name="Last Report", description="report.md of the last validation", subtype="FILE_PATH")
 
     @classmethod
     def register(cls):
@@ -158,6 +169,18 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_time: bpy.props.FloatProperty(name="Bake Time")
+    validation_error: bpy.props.FloatProperty(
+        name="Error vs Cycles", description="Relative RMS (luminance) of EEVEE with Glossy "
+        "against Cycles at the last validation", default=-1.0)
+    validation_native_error: bpy.props.FloatProperty(
+        name="Native Error", description="Relative RMS of EEVEE's own BSDF against Cycles at "
+        "the last validation (best of the scene's settings and no sun/clamp); -1: none",
+        default=-1.0)
+    validation_truth: bpy.props.StringProperty(name="Validated Against")
+    validation_date: bpy.props.StringProperty(name="Validated On")
+    validation_bake_hash: bpy.props.StringProperty(
+        name="Validated Bake", description="Bake hash at the last validation: a re-bake makes "
+        "the figures stale")
     original: bpy.props.PointerProperty(
         type=bpy.types.Material, name="Original Material",
         description="The material as it was before Glossy attached its lookup "

@@ -2,7 +2,7 @@
 
 import importlib
 
-_MODULE_NAMES = ("export_environment", "capture_probes", "bake_materials", "clear")
+_MODULE_NAMES = ("export_environment", "capture_probes", "bake_materials", "clear", "validate")
 
 
 def _classes():

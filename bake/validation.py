@@ -1,0 +1,202 @@
+"""Validation reports: figures of each method against Cycles, sheets, report.json/.md.
+
+Pure NumPy (no bpy): the Blender operator ``glossy.validate`` renders the
+images and calls this; scripts can call it on their own renders.
+
+Per object, from images (H, W, 3) of the whole frame and the object's mask
+(H, W):
+
+- ``cycles``: the mean of two Cycles renders with different seeds (the
+  scene truth: the true BSDF, all light paths); its noise is
+  :func:`bake.metrics.noise_of_mean`. When it is missing (a BRDF Cycles
+  cannot render) the NumPy reference takes its place and the report says so.
+- each method (``eevee_native``, ``eevee_native_careful``, ``eevee_glossy``,
+  ``reference``) gets :func:`bake.metrics.compare` against the truth.
+- ``glossy_vs_reference``: Glossy against the NumPy reference, the method's
+  own error under distant lighting (no probe, parallax or occlusion error).
+
+The truth is flagged too noisy when its noise is not below a quarter of the
+smallest error reported against it.
+"""
+
+import datetime
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics, preview
+from .bitmap_font import GLYPHS, HEIGHT, WIDTH
+
+__all__ = ["evaluate_object", "object_sheet", "write_report", "markdown", "METHOD_TITLES"]
+
+METHOD_TITLES = {
+    "cycles": "Cycles",
+    "eevee_native": "EEVEE native",
+    "eevee_native_careful": "EEVEE native, no sun/clamp",
+    "eevee_glossy": "EEVEE Glossy",
+    "reference": "NumPy reference",
+}
+#: Noise of the truth must be below this fraction of every error reported against it.
+NOISE_FRACTION = 0.25
+
+
+def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
+    """Figures of one object (JSON-ready).
+
+    renders: {method: (H, W, 3) image or None}; cycles_seeds: (a, b) Cycles
+    renders with different seeds, or None when Cycles cannot render the BRDF.
+    """
+    mask = np.asarray(mask, bool)
+    out = {"pixels": int(mask.sum()), "methods": {}}
+    if cycles_seeds is not None:
+        a, b = cycles_seeds
+        truth = 0.5 * (np.asarray(a, np.float64) + np.asarray(b, np.float64))
+        out["truth"] = "cycles"
+        out["cycles_noise"] = metrics.noise_of_mean(a, b, mask)
+    else:
+        truth = renders.get("reference")
+        out["truth"] = "reference"
+        out["cycles_noise"] = None
+    for method, image in renders.items():
+        if image is None or (method == "reference" and out["truth"] == "reference"):
+            continue
+        out["methods"][method] = metrics.compare(image, truth, mask)
+    if renders.get("eevee_glossy") is not None and renders.get("reference") is not None \
+            and out["truth"] == "cycles":
+        out["glossy_vs_reference"] = metrics.compare(renders["eevee_glossy"],
+                                                     renders["reference"], mask)
+    errors = [m["relative_rms"] for m in out["methods"].values()]
+    out["truth_too_noisy"] = bool(out["cycles_noise"] is not None and errors
+                                  and out["cycles_noise"] > NOISE_FRACTION * min(errors))
+    return out
+
+
+def _draw_text(image, text, x, y, colour=(255, 255, 255)):
+    """Print ``text`` into uint8 ``image`` (H, W, 3) with its top-left corner at (x, y)."""
+    for index, char in enumerate(text):
+        code = ord(char) if 32 <= ord(char) < 127 else ord("?")
+        row = GLYPHS[code - 32]
+        bits = np.array([[int(row[2 * i:2 * i + 2], 16) >> (WIDTH - 1 - j) & 1
+                          for j in range(WIDTH)] for i in range(HEIGHT)], dtype=bool)
+        left = x + index * WIDTH
+        h = min(HEIGHT, image.shape[0] - y)
+        w = min(WIDTH, image.shape[1] - left)
+        if h <= 0 or w <= 0:
+            break
+        region = image[y:y + h, left:left + w]
+        region[bits[:h, :w]] = colour
+
+
+def _crop_box(mask, margin=4):
+    rows, cols = np.nonzero(mask)
+    top = max(int(rows.min()) - margin, 0)
+    left = max(int(cols.min()) - margin, 0)
+    return (slice(top, min(int(rows.max()) + margin + 1, mask.shape[0])),
+            slice(left, min(int(cols.max()) + margin + 1, mask.shape[1])))
+
+
+def object_sheet(renders: dict, truth, mask, figures: dict, title: str, scale=None):
+    """uint8 (H, W, 3) sheet: each render, the truth, signed and absolute error
+    heatmaps of Glossy against the truth, each panel titled, figures printed below."""
+    box = _crop_box(mask)
+    exposure = metrics.exposure_for(truth, mask)
+    panels = [("Cycles" if figures["truth"] == "cycles" else "Reference (truth)",
+               preview.tonemap(truth[box], exposure))]
+    for method in ("eevee_native", "eevee_native_careful", "eevee_glossy", "reference"):
+        image = renders.get(method)
+        if image is None or (method == "reference" and figures["truth"] == "reference"):
+            continue
+        panels.append((METHOD_TITLES[method], preview.tonemap(image[box], exposure)))
+    glossy = renders.get("eevee_glossy")
+    if glossy is not None:
+        panels.append(("Glossy-truth signed", metrics.signed_heatmap(glossy[box], truth[box],
+                                                                      mask[box])))
+        panels.append(("|Glossy-truth|", metrics.absolute_heatmap(glossy[box], truth[box],
+                                                                   mask[box])))
+    height, width = panels[0][1].shape[:2]
+    factor = scale or max(1, int(np.ceil(160 / max(height, width))))
+    height, width = height * factor, width * factor
+    label = HEIGHT + 4
+    lines = _figure_lines(figures, title)
+    sheet = np.full((label + height + 6 + len(lines) * (HEIGHT + 2) + 4,
+                     len(panels) * (width + 4) + 4, 3), 24, dtype=np.uint8)
+    for index, (name, image) in enumerate(panels):
+        x = 4 + index * (width + 4)
+        _draw_text(sheet, name[: max(1, width // WIDTH)], x, 2)
+        sheet[label:label + height, x:x + width] = preview.upscale(image, factor)
+    y = label + height + 6
+    for line in lines:
+        _draw_text(sheet, line[: max(1, (sheet.shape[1] - 8) // WIDTH)], 4, y)
+        y += HEIGHT + 2
+    return sheet
+
+
+def _percent(value):
+    return "n/a" if value is None else f"{100 * value:.1f}%"
+
+
+def _figure_lines(figures, title):
+    truth = "Cycles (2 seeds)" if figures["truth"] == "cycles" else "NumPy reference"
+    lines = [f"{title}: {figures['pixels']} px, truth = {truth}"
+             + (f", its noise {_percent(figures['cycles_noise'])}"
+                if figures.get("cycles_noise") is not None else "")
+             + (" - TOO NOISY" if figures.get("truth_too_noisy") else "")]
+    for method, m in figures["methods"].items():
+        flip = "" if m["flip"] is None else f" FLIP {m['flip']:.3f}"
+        lines.append(f"{METHOD_TITLES[method]}: rel RMS {_percent(m['relative_rms'])}, bias "
+                     f"{m['bias']:.3f}, PSNR {m['psnr_db']:.1f} dB, p90 "
+                     f"{_percent(m['relative_error']['p90'])}{flip}")
+    if "glossy_vs_reference" in figures:
+        lines.append(f"Glossy vs NumPy reference (method error): rel RMS "
+                     f"{_percent(figures['glossy_vs_reference']['relative_rms'])}")
+    return lines
+
+
+def markdown(report: dict) -> str:
+    """report.md: the settings and one table row per object and method."""
+    lines = [f"# Glossy validation ({report['date']})", "",
+             f"- scene: {report.get('scene', '?')}, camera: {report.get('camera', '?')}",
+             f"- {report['resolution'][0]} x {report['resolution'][1]} px, Cycles "
+             f"{report['cycles_samples']} spp x 2 seeds, EEVEE {report['eevee_samples']} samples",
+             f"- FLIP: {'yes' if report.get('flip') else 'not available (flip-evaluator absent)'}",
+             ""]
+    for note in report.get("notes", []):
+        lines.append(f"- note: {note}")
+    lines += ["", "| object | material | BRDF | truth | truth noise | method | rel. RMS | bias "
+              "| PSNR dB | p90 | FLIP |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for entry in report["objects"]:
+        figures = entry["figures"]
+        for method, m in figures["methods"].items():
+            flip = "-" if m["flip"] is None else f"{m['flip']:.3f}"
+            lines.append(
+                f"| {entry['object']} | {entry['material']} | `{entry['brdf']}` | "
+                f"{figures['truth']} | {_percent(figures['cycles_noise'])} | "
+                f"{METHOD_TITLES[method]} | {_percent(m['relative_rms'])} | {m['bias']:.3f} | "
+                f"{m['psnr_db']:.1f} | {_percent(m['relative_error']['p90'])} | {flip} |")
+        if "glossy_vs_reference" in figures:
+            g = figures["glossy_vs_reference"]
+            lines.append(f"| {entry['object']} | | | reference | | Glossy vs reference | "
+                         f"{_percent(g['relative_rms'])} | {g['bias']:.3f} | {g['psnr_db']:.1f}"
+                         f" | {_percent(g['relative_error']['p90'])} | - |")
+    return "\n".join(lines) + "\n"
+
+
+def _atomic_text(path: Path, text: str):
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    temporary.write_text(text)
+    os.replace(temporary, path)
+
+
+def write_report(folder, report: dict, sheets: dict) -> list:
+    """Write sheets ({file name: uint8 image}), report.json and report.md into
+    ``folder`` (each file atomically); returns the paths written."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    report = dict(report)
+    report.setdefault("date", datetime.datetime.now().isoformat(timespec="seconds"))
+    written = [preview.write_png(folder / name, image) for name, image in sheets.items()]
+    _atomic_text(folder / "report.json", json.dumps(report, indent=2))
+    _atomic_text(folder / "report.md", markdown(report))
+    return written + [folder / "report.json", folder / "report.md"]

@@ -1,0 +1,323 @@
+"""Blender side of validation: the true BSDF as a Cycles material, temporary scene
+changes that are always undone, a framing camera, and renders with their passes.
+
+Everything the operator changes goes through :class:`SceneChanges`, which
+records each original value once and restores them all (and removes every
+temporary datablock) however the validation ends: finished, cancelled with
+Esc, or failed.
+"""
+
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from ..bake import brdf, exr
+from ..bake.errors import BakeError
+from .scenes import exact_cycles, render_engine
+
+#: bake.brdf models Cycles' Glossy BSDF renders exactly (CYCLES.md), by distribution.
+CYCLES_DISTRIBUTIONS = {"ggx": "GGX", "beckmann": "BECKMANN",
+                        "ashikhmin_shirley": "ASHIKHMIN_SHIRLEY", "ggx_multiscatter": "MULTI_GGX"}
+
+
+def truth_material(material):
+    """(a new material with the true BSDF of ``material``'s Glossy settings, None) or
+    (None, why Cycles cannot render it). Glossy BSDF (plus a Diffuse BSDF for the
+    diffuse colour, mixed by a Fresnel node when Fresnel IOR > 1, as the lookup is)."""
+    settings = material.glossy
+    try:
+        model = brdf.parse(settings.brdf_spec())
+    except (BakeError, ValueError) as error:
+        return None, f"its BRDF spec is invalid ({error})"
+    name = getattr(model, "name", "")
+    if name not in CYCLES_DISTRIBUTIONS and name != "lambert":
+        return None, f"Cycles has no '{name}' BSDF"
+    if name != "lambert" and not model.isotropic:
+        return None, "anisotropic truth needs the lookup's tangent, which Glossy does not bake"
+    truth = bpy.data.materials.new(f"{material.name} (Glossy truth)")
+    truth.use_nodes = True
+    tree = truth.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    if name == "lambert":
+        surface = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        surface.inputs["Color"].default_value = (*model.params["color"], 1.0)
+        surface.inputs["Roughness"].default_value = 0.0
+    else:
+        surface = tree.nodes.new("ShaderNodeBsdfAnisotropic")
+        surface.distribution = CYCLES_DISTRIBUTIONS[name]
+        surface.inputs["Roughness"].default_value = math.sqrt(model.ax)  # alpha = roughness^2
+        surface.inputs["Anisotropy"].default_value = 0.0
+        surface.inputs["Color"].default_value = (*model.params["color"], 1.0)
+    if any(settings.diffuse) and name != "lambert":
+        diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = (*settings.diffuse, 1.0)
+        diffuse.inputs["Roughness"].default_value = 0.0
+        if settings.fresnel_ior > 1.0:
+            fresnel = tree.nodes.new("ShaderNodeFresnel")
+            fresnel.inputs["IOR"].default_value = settings.fresnel_ior
+            mix = tree.nodes.new("ShaderNodeMixShader")
+            tree.links.new(fresnel.outputs["Fac"], mix.inputs["Fac"])
+            tree.links.new(diffuse.outputs[0], mix.inputs[1])
+            tree.links.new(surface.outputs[0], mix.inputs[2])
+        else:
+            mix = tree.nodes.new("ShaderNodeAddShader")
+            tree.links.new(surface.outputs[0], mix.inputs[0])
+            tree.links.new(diffuse.outputs[0], mix.inputs[1])
+        surface = mix
+    tree.links.new(surface.outputs[0], output.inputs["Surface"])
+    return truth, None
+
+
+def reference_parts(material):
+    """[(bake.brdf model, weight kind)] whose NumPy references add up to the material:
+    the glossy BRDF, and the diffuse colour as Lambert, weighted by the dielectric
+    Fresnel term of n.v (F glossy + (1 - F) diffuse) when Fresnel IOR > 1."""
+    settings = material.glossy
+    fresnel = settings.fresnel_ior > 1.0
+    parts = [(brdf.parse(settings.brdf_spec()), "fresnel" if fresnel else "one")]
+    if any(settings.diffuse):
+        colour = "/".join(f"{c:g}" for c in settings.diffuse)
+        parts.append((brdf.parse(f"lambert:color={colour}"),
+                      "one_minus_fresnel" if fresnel else "one"))
+    return parts
+
+
+class SceneChanges:
+    """Set attributes and create datablocks for a while; :meth:`restore` undoes all."""
+
+    def __init__(self):
+        self._saved = []  # (owner, attribute, original value), first change only
+        self._seen = set()
+        self._created = []  # (collection, datablock)
+
+    def set(self, owner, attribute, value):
+        key = (owner.as_pointer(), attribute)
+        if key not in self._seen:
+            self._seen.add(key)
+            self._saved.append((owner, attribute, getattr(owner, attribute)))
+        setattr(owner, attribute, value)
+
+    def created(self, collection, block):
+        self._created.append((collection, block))
+        return block
+
+    def restore(self):
+        for owner, attribute, value in reversed(self._saved):
+            try:
+                setattr(owner, attribute, value)
+            except (ReferenceError, AttributeError, TypeError):
+                pass  # the owner was removed meanwhile
+        self._saved, self._seen = [], set()
+        for collection, block in reversed(self._created):
+            try:
+                collection.remove(block)
+            except (ReferenceError, RuntimeError):
+                pass
+        self._created = []
+
+
+def framing_camera(changes, scene, objects):
+    """A temporary camera that frames ``objects``' world bounding sphere from the
+    front (-Y, slightly above); set as the scene camera. Raises BakeError when
+    there is nothing to frame."""
+    corners = [obj.matrix_world @ Vector(corner) for obj in objects if obj.type == "MESH"
+               for corner in obj.bound_box]
+    if not corners:
+        raise BakeError("the scene has no camera and no mesh to frame: add a camera")
+    centre = sum(corners, Vector()) / len(corners)
+    radius = max((c - centre).length for c in corners)
+    if radius <= 0:
+        raise BakeError("the scene has no camera and the selection has no extent to frame")
+    data = changes.created(bpy.data.cameras, bpy.data.cameras.new("Glossy validation camera"))
+    camera = changes.created(bpy.data.objects, bpy.data.objects.new(data.name, data))
+    scene.collection.objects.link(camera)
+    fov = data.angle
+    distance = 1.15 * radius / math.sin(0.5 * fov)
+    direction = Vector((0.0, -1.0, 0.3)).normalized()
+    camera.location = centre + direction * distance
+    camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
+    data.clip_start = max(1e-3, 0.01 * distance)
+    data.clip_end = 10.0 * (distance + radius)
+    changes.set(scene, "camera", camera)
+    return camera
+
+
+def prepare_output(changes, scene, resolution):
+    """Float RGBA EXR, the longer side ``resolution`` pixels (the scene's aspect kept),
+    no compositor, Standard view (the pixels are the radiance)."""
+    render = scene.render
+    aspect = (render.resolution_x * render.pixel_aspect_x) / max(
+        render.resolution_y * render.pixel_aspect_y, 1e-9)
+    width, height = (resolution, max(1, round(resolution / aspect))) if aspect >= 1 else \
+        (max(1, round(resolution * aspect)), resolution)
+    changes.set(render, "resolution_x", width)
+    changes.set(render, "resolution_y", height)
+    changes.set(render, "resolution_percentage", 100)
+    changes.set(render, "pixel_aspect_x", 1.0)
+    changes.set(render, "pixel_aspect_y", 1.0)
+    changes.set(render, "use_border", False)
+    changes.set(render, "use_compositing", False)
+    changes.set(render, "use_sequencer", False)
+    changes.set(render, "filepath", render.filepath)
+    settings = render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5.0
+        changes.set(settings, "media_type", "IMAGE")
+    changes.set(settings, "file_format", "OPEN_EXR")
+    changes.set(settings, "color_mode", "RGBA")
+    changes.set(settings, "color_depth", "32")
+    changes.set(settings, "exr_codec", "ZIP")
+    changes.set(scene.view_settings, "view_transform", "Standard")
+    return width, height
+
+
+def render_to(scene, path: Path) -> np.ndarray:
+    """Render the scene to ``path`` (float EXR); returns (H, W, 3) float64 radiance."""
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    if not path.exists():
+        raise BakeError(f"the render wrote no file ({path.name})")
+    image, _ = exr.read(path)
+    return np.asarray(image[..., :3], dtype=np.float64)
+
+
+def camera_rays(scene, camera, width, height):
+    """Origins and unit directions (H, W, 3) of the rays through the pixel centres
+    (row 0 at the top), world space: the rays Cycles traces with a 0.01 px filter."""
+    data = camera.data
+    top_right, _, bottom_left, top_left = (np.array(c) for c in data.view_frame(scene=scene))
+    u = ((np.arange(width) + 0.5) / width)[None, :, None]
+    v = ((np.arange(height) + 0.5) / height)[:, None, None]
+    points = top_left + u * (top_right - top_left) + v * (bottom_left - top_left)
+    matrix = np.array(camera.matrix_world)
+    rotation, location = matrix[:3, :3], matrix[:3, 3]
+    if data.type == "ORTHO":
+        origins = points.copy()
+        origins[..., 2] = 0.0
+        origins = origins @ rotation.T + location
+        directions = np.broadcast_to(-rotation[:, 2], origins.shape).copy()
+    else:
+        directions = points @ rotation.T
+        origins = np.broadcast_to(location, directions.shape).copy()
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    return origins, directions
+
+
+def _corner_geometry(obj_eval):
+    """World vertex positions (V, 3), triangles' corners (T, 3) and vertices (T, 3),
+    their polygons (T,) and world corner normals (C, 3) of an evaluated mesh."""
+    mesh = obj_eval.data
+    mesh.calc_loop_triangles()
+    matrix = np.array(obj_eval.matrix_world)
+    positions = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", positions)
+    positions = positions.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    count = len(mesh.loop_triangles)
+    corners = np.empty(count * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", corners)
+    verts = np.empty(count * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", verts)
+    polygons = np.empty(count, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", polygons)
+    normals = np.empty(len(mesh.loops) * 3)
+    mesh.corner_normals.foreach_get("vector", normals)
+    normals = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])  # inverse transpose
+    return positions, corners.reshape(-1, 3), verts.reshape(-1, 3), polygons, normals
+
+
+def pixel_geometry(scene, camera, width, height, objects):
+    """Per pixel: the number (1..N) of the object of ``objects`` its centre ray meets
+    first (0: another object or nothing), the world position there and the shading
+    normal (corner normals interpolated over the hit triangle, as Cycles shades a
+    smooth mesh): (H, W), (H, W, 3), (H, W, 3)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    origins, directions = camera_rays(scene, camera, width, height)
+    index = np.zeros((height, width), dtype=int)
+    positions = np.zeros((height, width, 3))
+    normals = np.zeros((height, width, 3))
+    faces = np.full((height, width), -1, dtype=int)
+    wanted = {obj.name: number + 1 for number, obj in enumerate(objects)}
+    for row in range(height):
+        for col in range(width):
+            hit, location, _, face, hit_obj, _ = scene.ray_cast(
+                depsgraph, Vector(origins[row, col]), Vector(directions[row, col]))
+            if hit and hit_obj.original.name in wanted:
+                index[row, col] = wanted[hit_obj.original.name]
+                positions[row, col] = location
+                faces[row, col] = face
+    for obj in objects:
+        pixels = index == wanted[obj.name]
+        if pixels.any():
+            normals[pixels] = _smooth_normals(obj.evaluated_get(depsgraph), positions[pixels],
+                                              faces[pixels])
+    return index, positions, normals
+
+
+def _smooth_normals(obj_eval, points, polys):
+    """(P, 3) shading normals at world points on the given polygons."""
+    verts, corners, tri_verts, polygons, corner_normals = _corner_geometry(obj_eval)
+    order = np.argsort(polygons, kind="stable")
+    first = np.searchsorted(polygons[order], polys)
+    best = np.zeros(len(points), dtype=np.int64)
+    best_weights = np.full((len(points), 3), 1.0 / 3.0)
+    score = np.full(len(points), -np.inf)
+    for offset in range(16):  # the triangles of each hit polygon (an n-gon has n - 2)
+        slot = np.minimum(first + offset, len(order) - 1)
+        tri = order[slot]
+        valid = polygons[tri] == polys
+        if not valid.any():
+            break
+        weights = _barycentric(points, verts[tri_verts[tri]])
+        inside = np.min(weights, axis=1)
+        better = valid & (inside > score)
+        best[better], score[better] = tri[better], inside[better]
+        best_weights[better] = weights[better]
+    shading = np.einsum("pk,pkj->pj", best_weights, corner_normals[corners[best]])
+    return shading / np.maximum(np.linalg.norm(shading, axis=1, keepdims=True), 1e-30)
+
+
+def _barycentric(points, triangles):
+    """(P, 3) barycentric weights of points in triangles (P, 3, 3)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    v0, v1, v2 = b - a, c - a, points - a
+    d00, d01, d11 = np.sum(v0 * v0, 1), np.sum(v0 * v1, 1), np.sum(v1 * v1, 1)
+    d20, d21 = np.sum(v2 * v0, 1), np.sum(v2 * v1, 1)
+    denominator = d00 * d11 - d01**2
+    denominator = np.where(np.abs(denominator) > 1e-30, denominator, 1e-30)
+    v = (d11 * d20 - d01 * d21) / denominator
+    w = (d00 * d21 - d01 * d20) / denominator
+    return np.stack([1.0 - v - w, v, w], axis=1)
+
+
+def configure_cycles(changes, scene, samples, seed):
+    for attribute, value in (("engine", "CYCLES"),):
+        changes.set(scene.render, attribute, value)
+    cycles = scene.cycles
+    for attribute in ("device", "samples", "use_denoising", "blur_glossy", "pixel_filter_type",
+                      "filter_width", "sample_clamp_direct", "sample_clamp_indirect",
+                      "use_adaptive_sampling", "seed"):
+        changes.set(cycles, attribute, getattr(cycles, attribute))
+    exact_cycles(scene, samples)
+    cycles.seed = seed
+
+
+def configure_eevee(changes, scene, samples, careful):
+    """EEVEE with the scene's own settings and ``samples``; ``careful``: world sun
+    extraction off and no indirect clamp, the strongest native EEVEE."""
+    changes.set(scene.render, "engine", render_engine("BLENDER_EEVEE"))
+    changes.set(scene.eevee, "taa_render_samples", samples)
+    if careful:
+        if hasattr(scene.eevee, "clamp_surface_indirect"):
+            changes.set(scene.eevee, "clamp_surface_indirect", 0.0)
+        if scene.world is not None and hasattr(scene.world, "sun_threshold"):
+            changes.set(scene.world, "sun_threshold", 0.0)
+
+
+def careful_differs(scene) -> bool:
+    """Whether the scene's EEVEE extracts a sun or clamps indirect light."""
+    sun = scene.world is not None and getattr(scene.world, "sun_threshold", 0.0) > 0.0
+    clamp = getattr(scene.eevee, "clamp_surface_indirect", 0.0) > 0.0
+    return sun or clamp

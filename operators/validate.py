@@ -1,0 +1,338 @@
+"""glossy.validate: the selected objects' Glossy materials against Cycles.
+
+Renders the scene with the camera (or a temporary one framing the selection):
+Cycles with the true BSDFs (two seeds), EEVEE with EEVEE's own BSDFs (the
+scene's settings, and once more without sun extraction and indirect clamp
+when the scene has them), EEVEE with Glossy's lookups, and the NumPy
+reference at the same pixels; then writes per object a PNG sheet plus
+report.json / report.md / the renders into ``//glossy/validation/`` and
+stores the figures on each material. Everything it changes is put back
+however it ends; a cancelled or failed validation leaves no report.
+"""
+
+import datetime
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..bake import exr, metrics, reference, validation
+from ..bake.brdf import fresnel
+from ..bake.errors import BakeError
+from ..bake.progress import run_steps
+from ..glossy_addon import validation as glue
+from ..glossy_addon.modal import TimerSteps
+from ..glossy_addon.paths import output_folder
+from ..glossy_addon.progress import BlenderProgress
+
+
+def _glossy_materials(obj):
+    out = []
+    for slot in obj.material_slots:
+        material = slot.material
+        if material is not None and (material.glossy.bake_path or material.glossy.original):
+            if material not in out:
+                out.append(material)
+    return out
+
+
+def _targets(context):
+    """[(object, [Glossy materials])] of the selection, or raise BakeError saying why not."""
+    selected = [obj for obj in context.selected_objects if obj.type == "MESH"]
+    if not selected and context.object is not None and context.object.type == "MESH":
+        selected = [context.object]
+    if not selected:
+        raise BakeError("Select the mesh objects to validate")
+    if not any(slot.material for obj in selected for slot in obj.material_slots):
+        raise BakeError("The selected objects have no material: give them a Glossy material, "
+                        "then capture, bake and attach")
+    targets = [(obj, _glossy_materials(obj)) for obj in selected]
+    targets = [(obj, materials) for obj, materials in targets if materials]
+    if not targets:
+        raise BakeError("Nothing baked for the selected objects: capture, bake and attach "
+                        "their Glossy materials first")
+    for obj, materials in targets:
+        for material in materials:
+            path = material.glossy.bake_path
+            if not path or not Path(bpy.path.abspath(path)).exists():
+                raise BakeError(f"{material.name}: nothing baked: bake it first")
+            if material.glossy.original is None:
+                raise BakeError(f"{material.name}: baked but not attached: attach it first")
+        if not obj.glossy.probe_path or not Path(bpy.path.abspath(obj.glossy.probe_path)).exists():
+            raise BakeError(f"{obj.name}: its probe is missing: capture it again")
+    return targets
+
+
+class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
+    """Render the selected Glossy objects in Cycles, native EEVEE, EEVEE with Glossy and the
+    NumPy reference; write error sheets and a report beside the .blend"""
+
+    bl_idname = "glossy.validate"
+    bl_label = "Validate Against Cycles"
+    bl_options = {"REGISTER"}
+    progress_title = "validate"
+    timer_interval = 0.02
+
+    # --- set-up ---------------------------------------------------------------
+    def _begin(self, context):
+        scene = context.scene
+        settings = scene.glossy
+        self._targets = _targets(context)
+        self._folder = output_folder() / "validation"
+        self._work = Path(tempfile.mkdtemp(prefix="glossy-validate-"))
+        self._changes = glue.SceneChanges()
+        self._notes, self._images, self._timings = [], {}, {}
+        self._references = {}
+        try:
+            self._setup(context, scene, settings)
+        except BaseException:
+            self._cleanup()
+            raise
+        steps = [("cycles", 1), ("cycles", 2), ("eevee_native", 0), ("eevee_glossy", 0)]
+        if self._careful:
+            steps.append(("eevee_native_careful", 0))
+        steps += [("reference", index) for index in range(len(self._targets))]
+        steps.append(("report", 0))
+        return steps
+
+    def _setup(self, context, scene, settings):
+        changes = self._changes
+        if scene.camera is None:
+            glue.framing_camera(changes, scene, [obj for obj, _ in self._targets])
+            self._camera_note = "temporary camera framing the selection (the scene has none)"
+            self._notes.append("the scene has no camera: a temporary one framed the selection")
+        else:
+            self._camera_note = f"scene camera '{scene.camera.name}'"
+        self._size = glue.prepare_output(changes, scene, settings.validate_resolution)
+        self._careful = glue.careful_differs(scene)
+        self._truth, self._slots = {}, []
+        for obj, materials in self._targets:
+            for material in materials:
+                if material.name in self._truth:
+                    continue
+                truth, why = glue.truth_material(material)
+                if truth is not None:
+                    changes.created(bpy.data.materials, truth)
+                else:
+                    self._notes.append(f"{material.name}: no Cycles or EEVEE truth ({why}); "
+                                       f"measured against the NumPy reference only")
+                self._truth[material.name] = truth
+            for slot in obj.material_slots:
+                if slot.material in materials:
+                    self._slots.append((slot, slot.material))
+                    changes.set(slot, "material", slot.material)
+
+    def _use(self, kind):
+        """Put the true BSDF ("truth", where there is one) or Glossy's lookup in each slot."""
+        for slot, material in self._slots:
+            truth = self._truth.get(material.name)
+            slot.material = truth if kind == "truth" and truth is not None else material
+
+    # --- steps ----------------------------------------------------------------
+    def _run_step(self, context, step):
+        kind, value = step
+        scene = context.scene
+        settings = scene.glossy
+        start = time.perf_counter()
+        if kind == "cycles":
+            self._use("truth")
+            glue.configure_cycles(self._changes, scene, settings.validate_samples, value)
+            name = f"cycles_seed{value}"
+            message = f"Cycles, seed {value} ({settings.validate_samples} spp)"
+        elif kind.startswith("eevee"):
+            self._use("glossy" if kind == "eevee_glossy" else "truth")
+            glue.configure_eevee(self._changes, scene, settings.validate_eevee_samples,
+                                 careful=kind == "eevee_native_careful")
+            name = kind
+            message = validation.METHOD_TITLES[kind]
+        elif kind == "reference":
+            return self._reference_steps(value)
+        else:
+            return self._write_report(context)
+        self._images[name] = glue.render_to(scene, self._work / f"{name}.exr")
+        if name == "cycles_seed1":  # what each pixel's centre ray meets, as Cycles saw it
+            width, height = self._size
+            self._index, self._positions, self._normals = glue.pixel_geometry(
+                scene, scene.camera, width, height, [obj for obj, _ in self._targets])
+        self._timings[name] = time.perf_counter() - start
+        return f"rendered {message} in {self._timings[name]:.1f} s"
+
+    def _mask(self, index):
+        return metrics.erode(self._index == index + 1, 1)
+
+    def _reference_steps(self, index):
+        """The NumPy reference of one object at its pixels (a generator: one part per
+        chunk of pixels)."""
+        start = time.perf_counter()
+        obj, materials = self._targets[index]
+        camera = bpy.context.scene.camera.matrix_world.translation
+        probe, meta = exr.read(bpy.path.abspath(obj.glossy.probe_path))
+        probe = probe[..., :3]
+        layout = meta.get("layout", "cube")
+        index_pass = self._index == index + 1
+        material = materials[0]  # one reference per object: the Object Index pass has no
+        if len(materials) > 1:  # per-face material split, so the first material stands
+            self._notes.append(f"{obj.name}: {len(materials)} Glossy materials; the NumPy "
+                               f"reference uses {material.name} for all its pixels")
+        radiance = np.zeros((*index_pass.shape, 3))
+        if index_pass.any():
+            normals = self._normals[index_pass]
+            normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+            views = np.asarray(camera)[None, :] - self._positions[index_pass]
+            views /= np.maximum(np.linalg.norm(views, axis=1, keepdims=True), 1e-30)
+            cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
+            fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
+                if material.glossy.fresnel_ior > 1.0 else None
+            total = np.zeros((len(normals), 3))
+            for model, weight in glue.reference_parts(material):
+                part = yield from _prefixed(f"{obj.name}: ", reference.render_steps(
+                    model, probe, layout, normals, views))
+                if weight == "fresnel":
+                    part = part * fresnel_weight[:, None]
+                elif weight == "one_minus_fresnel":
+                    part = part * (1.0 - fresnel_weight)[:, None]
+                total += part
+            radiance[index_pass] = total
+        self._references[obj.name] = radiance
+        self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
+        return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
+
+    def _write_report(self, context):
+        scene = context.scene
+        settings = scene.glossy
+        staging = self._work / "report"
+        staging.mkdir()
+        reference_image = np.zeros_like(self._images["cycles_seed1"])
+        for image in self._references.values():
+            reference_image += image
+        exr.write(staging / "reference.exr", reference_image.astype(np.float32),
+                  {"generator": "glossy-validate", "kind": "reference"})
+        masks = {}
+        entries, sheets = [], {}
+        date = datetime.datetime.now().isoformat(timespec="seconds")
+        for index, (obj, materials) in enumerate(self._targets):
+            mask = self._mask(index)
+            if not mask.any():
+                self._notes.append(f"{obj.name}: not visible from the camera (no pixel)")
+                continue
+            masks[f"mask.{obj.name}"] = mask.astype(np.float32)
+            material = materials[0]
+            has_truth = self._truth.get(material.name) is not None
+            renders = {"eevee_glossy": self._images["eevee_glossy"],
+                       "reference": self._references[obj.name]}
+            if has_truth:
+                renders["eevee_native"] = self._images["eevee_native"]
+                if "eevee_native_careful" in self._images:
+                    renders["eevee_native_careful"] = self._images["eevee_native_careful"]
+            seeds = (self._images["cycles_seed1"], self._images["cycles_seed2"]) \
+                if has_truth else None
+            figures = validation.evaluate_object(renders, mask, seeds)
+            truth = 0.5 * (seeds[0] + seeds[1]) if seeds else renders["reference"]
+            sheet_name = f"sheet_{bpy.path.clean_name(obj.name)}.png"
+            sheets[sheet_name] = validation.object_sheet(renders, truth, mask, figures,
+                                                         f"{obj.name} / {material.name}")
+            entries.append({"object": obj.name, "material": material.name,
+                            "materials": [m.name for m in materials],
+                            "brdf": material.glossy.brdf_spec(), "sheet": sheet_name,
+                            "mask_layer": f"mask.{obj.name}", "figures": figures})
+            self._store(materials, figures, date)
+        if not entries:
+            raise BakeError("none of the selected objects is visible from the camera")
+        exr.write(staging / "masks.exr", masks, {"generator": "glossy-validate"})
+        for name in list(self._images):
+            shutil.copyfile(self._work / f"{name}.exr", staging / f"{name}.exr")
+        width, height = self._size
+        report = {"date": date, "scene": scene.name, "camera": self._camera_note,
+                  "resolution": [width, height], "cycles_samples": settings.validate_samples,
+                  "eevee_samples": settings.validate_eevee_samples,
+                  "flip": metrics.flip_available(), "notes": self._notes,
+                  "renders": {name: f"{name}.exr" for name in self._images},
+                  "reference": "reference.exr", "masks": "masks.exr",
+                  "timings_s": {k: round(v, 2) for k, v in self._timings.items()},
+                  "objects": entries}
+        validation.write_report(staging, report, sheets)
+        self._folder.mkdir(parents=True, exist_ok=True)
+        for path in sorted(staging.iterdir()):  # whole files, each replaced atomically
+            os.replace(path, self._folder / path.name)
+        settings.last_report = str(self._folder / "report.md")
+        return f"wrote {len(entries)} sheet(s) and the report to {self._folder}"
+
+    @staticmethod
+    def _store(materials, figures, date):
+        methods = figures["methods"]
+        natives = [methods[m]["relative_rms"] for m in ("eevee_native", "eevee_native_careful")
+                   if m in methods]
+        for material in materials:
+            settings = material.glossy
+            settings.validation_error = methods["eevee_glossy"]["relative_rms"]
+            settings.validation_native_error = min(natives) if natives else -1.0
+            settings.validation_truth = figures["truth"]
+            settings.validation_date = date
+            settings.validation_bake_hash = settings.bake_hash
+
+    # --- ending ---------------------------------------------------------------
+    def _cleanup(self):
+        changes = getattr(self, "_changes", None)
+        if changes is not None:
+            changes.restore()
+            self._changes = None
+        work = getattr(self, "_work", None)
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)
+            self._work = None
+
+    def _stop(self, context):
+        try:
+            super()._stop(context)
+        finally:
+            self._cleanup()
+
+    def modal(self, context, event):
+        try:
+            return super().modal(context, event)
+        except BaseException:
+            self._cleanup()
+            raise
+
+    def _done_message(self):
+        return f"Glossy validation written to {self._folder}"
+
+    def _cancel_message(self):
+        return "Validation cancelled: scene restored, no report written"
+
+    def execute(self, context):
+        try:
+            steps = self._begin(context)
+        except (BakeError, ValueError, TypeError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        try:
+            with BlenderProgress(context, self.progress_title) as progress:
+                for index, step in enumerate(steps):
+                    result = self._run_step(context, step)
+                    if not isinstance(result, str):
+                        result = run_steps(result, None)
+                    progress((index + 1) / len(steps), result)
+        except (BakeError, ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, f"Validation failed, no report written: {error}")
+            return {"CANCELLED"}
+        finally:
+            self._cleanup()
+        self.report({"INFO"}, self._done_message())
+        return {"FINISHED"}
+
+
+def _prefixed(prefix, steps):
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield fraction, prefix + message
+
+
+classes = (GLOSSY_OT_validate,)
