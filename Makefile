@@ -31,6 +31,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/brdf.py
 	$(PY) benchmarks/prefilter.py
 	$(PY) benchmarks/exr_codec.py
+	$(PY) benchmarks/validate.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot
