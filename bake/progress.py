@@ -10,7 +10,7 @@ import sys
 import time
 from collections.abc import Callable
 
-__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps"]
+__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps", "prefixed_steps"]
 
 Progress = Callable[[float, str], None]
 
@@ -69,3 +69,14 @@ class LinePrinter:
         else:
             self.stream.write(line + "\n")
         self.stream.flush()
+
+
+def prefixed_steps(prefix: str, steps):
+    """Re-yield a step generator's (fraction, message) with ``prefix`` before each
+    message; returns the generator's value."""
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield fraction, prefix + message

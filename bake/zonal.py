@@ -193,6 +193,20 @@ def apply_row_kernels(half_weights, band_spectrum, width, target=None):
     return np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
 
 
+def checked_arguments(image, out_height, supersample):
+    """(image array, output rows, sub-samples) of a zonal convolution, or BakeError:
+    a lat-long (H, W, C) image, out_height >= 1 (default H), supersample in [1, 16]."""
+    image = np.asarray(image)
+    get_layout("latlong").check_image(image)
+    out_height = int(out_height or image.shape[0])
+    if out_height < 1:
+        raise BakeError(f"output height must be >= 1, not {out_height}")
+    s = int(supersample)
+    if not 1 <= s <= 16:
+        raise BakeError(f"supersample must be in [1, 16], not {supersample}")
+    return image, out_height, s
+
+
 def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, normalize=True,
                    progress=None, spectrum=None, supersample_radius=None):
     """Convolve a lat-long image (H, W, C) with a zonal kernel.
@@ -213,15 +227,8 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
     so a narrow kernel costs in proportion to the texels it covers, not to
     the whole sphere.
     """
-    image = np.asarray(image)
-    get_layout("latlong").check_image(image)
+    image, out_height, s = checked_arguments(image, out_height, supersample)
     height, width, channels = image.shape
-    out_height = int(out_height or height)
-    if out_height < 1:
-        raise BakeError(f"output height must be >= 1, not {out_height}")
-    s = int(supersample)
-    if not 1 <= s <= 16:
-        raise BakeError(f"supersample must be in [1, 16], not {supersample}")
     theta_out, _ = _rows(out_height)
     # The kernel is even in dphi (and the sub-offsets are symmetric): compute
     # columns 0..W/2 and mirror the rest.

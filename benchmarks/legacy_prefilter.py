@@ -15,9 +15,15 @@ import numpy as np
 
 from bake import lobes
 from bake.envmap import convert, get_layout
-from bake.errors import BakeError
 from bake.prefilter import _half_width
-from bake.zonal import _rows, _Table, apply_row_kernels, kernel_integral, suggested_supersample
+from bake.zonal import (
+    _rows,
+    _Table,
+    apply_row_kernels,
+    checked_arguments,
+    kernel_integral,
+    suggested_supersample,
+)
 
 _ROW_CHUNK_BYTES = 1 << 27
 
@@ -32,15 +38,8 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
     input-texel side for integrating the kernel. ``normalize``: rescale each
     output row's discrete kernel to the kernel's exact integral.
     """
-    image = np.asarray(image)
-    get_layout("latlong").check_image(image)
+    image, out_height, s = checked_arguments(image, out_height, supersample)
     height, width, channels = image.shape
-    out_height = int(out_height or height)
-    if out_height < 1:
-        raise BakeError(f"output height must be >= 1, not {out_height}")
-    s = int(supersample)
-    if not 1 <= s <= 16:
-        raise BakeError(f"supersample must be in [1, 16], not {supersample}")
     theta_in_edges = np.pi * np.arange(height + 1) / height
     theta_out, _ = _rows(out_height)
     # Sub-sample positions within an input texel: latitude and longitude offsets.

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..bake import atlas, exr, prefilter
 from ..bake.errors import BakeError
-from ..bake.progress import run_steps, scaled
+from ..bake.progress import prefixed_steps, run_steps, scaled
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.materials import stash_original
 from ..glossy_addon.modal import TimerSteps
@@ -24,16 +24,6 @@ def _scaled(steps, start, stop):
         except StopIteration as done:
             return done.value
         yield start + (stop - start) * fraction, message
-
-
-def _prefixed(name, steps):
-    """Re-yield a step generator's messages prefixed by the material's name."""
-    while True:
-        try:
-            fraction, message = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield fraction, f"{name}: {message}"
 
 
 def _object_with_probe(context):
@@ -184,8 +174,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
 
     def _run_step(self, context, step):
         name, path = step
-        return _prefixed(name, self._bake_steps(bpy.data.materials[name], path, self._probe,
-                                                self._meta, self._probe_path))
+        steps = self._bake_steps(bpy.data.materials[name], path, self._probe, self._meta,
+                                 self._probe_path)
+        return prefixed_steps(f"{name}: ", steps)
 
     def _done_message(self):
         return f"Glossy baked {self._done} material(s)"

@@ -23,7 +23,7 @@ import numpy as np
 from ..bake import exr, metrics, reference, validation
 from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
-from ..bake.progress import run_steps
+from ..bake.progress import prefixed_steps, run_steps
 from ..glossy_addon import validation as glue
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
@@ -189,7 +189,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                 if material.glossy.fresnel_ior > 1.0 else None
             total = np.zeros((len(normals), 3))
             for model, weight in glue.reference_parts(material):
-                part = yield from _prefixed(f"{obj.name}: ", reference.render_steps(
+                part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
                     model, probe, layout, normals, views))
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
@@ -324,15 +324,6 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             self._cleanup()
         self.report({"INFO"}, self._done_message())
         return {"FINISHED"}
-
-
-def _prefixed(prefix, steps):
-    while True:
-        try:
-            fraction, message = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield fraction, prefix + message
 
 
 classes = (GLOSSY_OT_validate,)
