@@ -6,19 +6,22 @@ checks). Progress goes to stderr; the list of files written to stdout.
 """
 
 import argparse
+import os
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__, exr
+from . import __version__, exr, outputs
 from .envmap import LAYOUTS, convert, get_layout, mip
 from .envmap.convert import supersampling
 from .errors import BakeError
 from .progress import LinePrinter
 
-__all__ = ["main"]
+__all__ = ["main", "run"]
 
 #: Work (sub-samples) above which the command line shows a progress line.
 PROGRESS_THRESHOLD = 1 << 20
@@ -56,7 +59,13 @@ def _guess_layout(shape, meta, path):
     )
 
 
+#: Smallest environment map the commands accept (rows).
+MIN_ROWS = 2
+
+
 def _read_rgb(path, sanitize):
+    """(H, W, 3) float32 radiance and the file's metadata. RGBA drops A; a
+    one-channel (Y) map becomes grey RGB; anything else is refused."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         image, meta = exr.read(path, nonfinite="sanitize" if sanitize else "error")
@@ -66,8 +75,17 @@ def _read_rgb(path, sanitize):
         if "" not in image:
             raise BakeError(f"{path}: several layers and no unnamed one ({', '.join(image)})")
         image = image[""]
-    if image.shape[2] == 4:
+    channels = image.shape[2]
+    if channels == 1:
+        image = np.repeat(image, 3, axis=2)
+    elif channels == 4:
         image = image[:, :, :3]
+    elif channels != 3:
+        raise BakeError(f"{path}: has {channels} colour channels; an environment map needs "
+                        f"R, G, B (or one Y channel)")
+    if min(image.shape[:2]) < MIN_ROWS:
+        raise BakeError(f"{path}: a {image.shape[0]}x{image.shape[1]} image is too small for "
+                        f"an environment map (at least {MIN_ROWS} pixels each way)")
     return image, meta
 
 
@@ -87,19 +105,12 @@ def _meta(args, layout, shape, extra=None):
     return meta
 
 
-def _check_output(path):
-    path = Path(path)
-    if path.suffix.lower() != ".exr":
-        raise BakeError(f"{path}: output file name must end in .exr")
-    if not path.parent.is_dir():
-        raise BakeError(f"{path.parent}: output folder does not exist")
-    if path.is_dir():
-        raise BakeError(f"{path}: is a directory")
-    return path
+def _check_output(path, *inputs):
+    return outputs.check_target(path, ".exr", inputs)
 
 
 def cmd_convert(args):
-    output = _check_output(args.output)
+    output = _check_output(args.output, args.input)
     target = get_layout(args.to)
     shape = target.shape(args.size)
     image, meta = _read_rgb(args.input, args.sanitize)
@@ -115,16 +126,22 @@ def cmd_convert(args):
 
 
 def cmd_mip(args):
-    output = _check_output(args.output)
+    output = _check_output(args.output, args.input)
     image, meta = _read_rgb(args.input, args.sanitize)
     layout = args.layout or _guess_layout(image.shape[:2], meta, args.input)
     progress = _progress_for(image.shape[0] * image.shape[1] * 4, args.quiet)
     levels = mip.pyramid(image, layout, args.filter, args.levels, progress=progress)
     stem = output.with_suffix("")
     paths = [stem.with_name(f"{stem.name}.mip{index}.exr") for index in range(len(levels))]
+    for path in paths:  # all checked before the first is written
+        outputs.check_implicit(_check_output(path, args.input), "MIP level")
+    with outputs.Staged() as staged:
+        for index, (path, level) in enumerate(zip(paths, levels, strict=True)):
+            extra = {"mip_level": index, "mip_filter": args.filter, "mip_levels": len(levels)}
+            level_meta = _meta(args, layout, level.shape[:2], extra)
+            staged.add(path, lambda target, level=level, level_meta=level_meta:
+                       exr.write(target, level, level_meta))
     for index, (path, level) in enumerate(zip(paths, levels, strict=True)):
-        extra = {"mip_level": index, "mip_filter": args.filter, "mip_levels": len(levels)}
-        exr.write(path, level, _meta(args, layout, level.shape[:2], extra))
         print(f"wrote {path} ({layout} level {index}, {level.shape[0]}x{level.shape[1]})")
 
 
@@ -134,9 +151,7 @@ def cmd_brdf(args):
 
     model = brdf.parse(args.spec)
     if args.plot:
-        plot_path = Path(args.plot)
-        if plot_path.suffix.lower() != ".png" or not plot_path.parent.is_dir():
-            raise BakeError(f"{plot_path}: --plot needs a .png path in an existing folder")
+        outputs.check_target(args.plot, ".png", what="--plot")
     print(f"spec: {model.spec}")
     print(f"hash: {model.spec_hash()}  reciprocal: {model.reciprocal}  "
           f"isotropic: {model.isotropic}")
@@ -147,19 +162,10 @@ def cmd_brdf(args):
         print(f"wrote {plot_brdf(model, args.plot)}")
 
 
-def _positive_output(path, suffix):
-    path = Path(path)
-    if path.suffix.lower() != suffix:
-        raise BakeError(f"{path}: output file name must end in {suffix}")
-    if not path.parent.is_dir():
-        raise BakeError(f"{path.parent}: output folder does not exist")
-    return path
-
-
 def cmd_fit(args):
     from . import lobes
 
-    output = _positive_output(args.output, ".json")
+    output = outputs.check_target(args.output, ".json")
     progress = None if args.quiet else LinePrinter()
     result = lobes.fit(args.brdf, slices=args.slices, lobes=args.lobes, mode=args.mode,
                        progress=progress)
@@ -174,11 +180,16 @@ def cmd_fit(args):
 def cmd_prefilter(args, mode=None):
     from . import prefilter
 
-    output = _check_output(args.output)
+    output = _check_output(args.output, args.input)
+    outputs.check_implicit(output.with_suffix(".json"), "map's .json sidecar")
     mode = mode or args.mode
+    brdf_spec = args.brdf if mode != "irradiance" else "lambert:color=1"
+    if mode != "irradiance":
+        from .brdf import parse
+
+        parse(brdf_spec)  # a bad spec is refused before the probe is read
     image, meta = _read_rgb(args.input, args.sanitize)
     layout = args.source or _guess_layout(image.shape[:2], meta, args.input)
-    brdf_spec = getattr(args, "brdf", None) or "lambert:color=1"
     progress = None if args.quiet else LinePrinter()
     baked = prefilter.prefilter(image, brdf_spec, mode, args.size, slices=args.slices,
                                 lobes_count=args.lobes, layout=layout, levels=args.levels,
@@ -194,7 +205,7 @@ def cmd_prefilter(args, mode=None):
 def cmd_reference(args):
     from . import brdf, reference
 
-    output = _check_output(args.output)
+    output = _check_output(args.output, args.input, *([args.buffers] if args.buffers else []))
     model = brdf.parse(args.brdf)
     probe, meta = _read_rgb(args.input, args.sanitize)
     layout = args.source or _guess_layout(probe.shape[:2], meta, args.input)
@@ -240,6 +251,16 @@ def _vector(text):
     if len(values) != 3:
         raise argparse.ArgumentTypeError(f"must be three numbers X,Y,Z, not {text!r}")
     return values
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, not {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
+    return value
 
 
 def _size_or_auto(text):
@@ -288,7 +309,8 @@ def _build_parser():
     p.add_argument("--from", dest="source", choices=layouts,
                    help="input layout (default: from the file's metadata or its shape)")
     p.add_argument("--size", required=True, type=int, help="target size N (see DESIGN.md)")
-    p.add_argument("--samples", type=int, help="sub-samples per texel side (default: automatic)")
+    p.add_argument("--samples", type=_positive_int,
+                   help="sub-samples per texel side (default: automatic)")
     p.add_argument("-o", "--output", required=True, help="output EXR")
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
@@ -357,7 +379,38 @@ def _build_parser():
     return parser
 
 
+INTERRUPTED = "error: interrupted; no output written"
+
+
+def _stop_at_once_on_interrupt() -> None:
+    """Make Ctrl-C end the process within milliseconds, even inside a long NumPy call.
+
+    The C-level signal handler writes to a wake-up pipe; a watcher thread
+    blocked on it (NumPy's heavy loops release the GIL) removes the
+    temporaries of writes in flight, prints one line and exits 130. Outputs
+    are only ever renamed into place whole, so nothing half-written remains.
+    Only from the main thread of the ``python -m bake`` process.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return
+    read_end, write_end = os.pipe()
+    os.set_blocking(write_end, False)
+    stderr = os.dup(2)  # the EXR writer silences fd 2 while it runs
+
+    def watch():
+        os.read(read_end, 1)
+        outputs.remove_temporaries()
+        os.write(stderr, (INTERRUPTED + "\n").encode())
+        os._exit(130)
+
+    signal.signal(signal.SIGINT, lambda number, frame: None)
+    signal.set_wakeup_fd(write_end, warn_on_full_buffer=False)
+    threading.Thread(target=watch, name="glossy-interrupt", daemon=True).start()
+
+
 def main(argv=None) -> int:
+    """Run one command; returns the exit status (0, 2 for a user error, 130 when
+    interrupted, 3 for an internal error, with one line on stderr)."""
     parser = _build_parser()
     args = parser.parse_args(argv)
     try:
@@ -369,11 +422,24 @@ def main(argv=None) -> int:
         print("error: out of memory (try a smaller --size)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("error: interrupted; no output written", file=sys.stderr)
+        outputs.remove_temporaries()
+        print(INTERRUPTED, file=sys.stderr)
         return 130
+    except OSError as error:
+        where = f"{error.filename}: " if error.filename else ""
+        print(f"error: {where}{error.strerror or error}", file=sys.stderr)
+        return 2
+    except Exception as error:  # noqa: BLE001 - one line, never a traceback
+        if os.environ.get("GLOSSY_DEBUG"):
+            raise
+        print(f"error: internal error ({type(error).__name__}: {error}); please report it "
+              f"(GLOSSY_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 3
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover
+def run() -> int:
+    """``python -m bake``: main() with Ctrl-C stopping at once."""
     np.seterr(all="ignore")
-    sys.exit(main())
+    _stop_at_once_on_interrupt()
+    return main()

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import exr_codec
+from . import exr_codec, outputs
 from .errors import BakeError
 
 __all__ = ["read", "write", "read_header", "read_parts", "write_parts", "EXR_MAGIC",
@@ -171,14 +171,18 @@ def _open_layers(path: Path):
             channels = {name: np.asarray(ch.pixels) for name, ch in exr_file.channels().items()}
     except (RuntimeError, ValueError, OSError, TypeError) as error:
         raise BakeError(f"{path}: truncated or corrupt OpenEXR file ({error})") from error
-    layers = {}
+    layers, loose = {}, {}
     for key, pixels in channels.items():
         if pixels.dtype.kind not in "fu":
             raise BakeError(f"{path}: channel group {key!r} has unsupported type {pixels.dtype}")
         array = pixels.astype(np.float32, copy=False)
         if array.ndim == 2:
-            array = array[:, :, None]
+            # A lone channel the package did not group (R and G without B): kept
+            # by its full name and regrouped below, never overwritten by another.
+            loose[key] = array
+            continue
         layers[_layer_name(key)] = array
+    layers.update(_group_planes(loose))
     if not layers:
         raise BakeError(f"{path}: the file holds no image channels")
     return header, layers
@@ -329,21 +333,16 @@ def write(path, image, meta: dict | None = None, *, half: bool = False) -> Path:
 
 
 def _atomic_write(path: Path, write) -> Path:
-    """Call write(temporary path) beside ``path``, then rename it over ``path``.
+    """Call write(temporary path) beside ``path``, then rename it over ``path``
+    (bake.outputs.atomic_write; the C library's prints silenced).
 
     On any failure the temporary file is removed and ``path`` is untouched.
     """
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.exr")
-    try:
+    def quiet(target):
         with _quiet_native():
-            write(str(temporary))
-        os.replace(temporary, path)
-    except (RuntimeError, OSError) as error:
-        raise BakeError(f"{path}: cannot write ({error})") from error
-    finally:
-        if temporary.exists():
-            temporary.unlink()
-    return path
+            write(target)
+
+    return outputs.atomic_write(path, quiet)
 
 
 def write_parts(path, parts: dict, meta: dict | None = None) -> Path:

@@ -107,14 +107,12 @@ class Fit:
         return json.dumps(self.to_dict())
 
     def save(self, path):
-        import os
         from pathlib import Path
 
-        path = Path(path)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        temporary.write_text(self.to_json())
-        os.replace(temporary, path)
-        return path
+        from . import outputs
+
+        text = self.to_json()
+        return outputs.atomic_write(path, lambda target: Path(target).write_text(text))
 
     @classmethod
     def from_dict(cls, data: dict) -> "Fit":

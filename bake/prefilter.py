@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, exr, lobes, resolution, sh, slice_basis
+from . import __version__, exr, lobes, outputs, resolution, sh, slice_basis
 from .brdf import BRDF, parse
 from .brdf.microfacet import ggx_d
 from .envmap import get_layout
@@ -384,18 +384,19 @@ class BakedMap:
 
     # --- files ---------------------------------------------------------------
     def write(self, path):
-        """Write the EXR (parameters in its header) and ``<path>.json`` beside it."""
-        path = Path(path)
-        if path.suffix.lower() != ".exr":
-            raise BakeError(f"{path}: output file name must end in .exr")
-        if self.mode == "split-sum":
-            exr.write_parts(path, self.layers, self.meta)
-        else:
-            exr.write(path, self.layers, self.meta)
-        sidecar = path.with_suffix(".json")
-        temporary = sidecar.with_name(f".{sidecar.name}.{os.getpid()}.partial")
-        temporary.write_text(json.dumps(self.meta, indent=1, sort_keys=True))
-        os.replace(temporary, sidecar)
+        """Write the EXR (parameters in its header) and ``<path>.json`` beside it.
+
+        Both are checked first (the sidecar may replace only a file Glossy
+        wrote), staged, and renamed together: a failure leaves neither."""
+        path = outputs.check_target(path, ".exr")
+        sidecar = outputs.check_implicit(path.with_suffix(".json"), "map's .json sidecar")
+        text = json.dumps(self.meta, indent=1, sort_keys=True)
+        with outputs.Staged() as staged:
+            if self.mode == "split-sum":
+                staged.add(path, lambda target: exr.write_parts(target, self.layers, self.meta))
+            else:
+                staged.add(path, lambda target: exr.write(target, self.layers, self.meta))
+            staged.add(sidecar, lambda target: Path(target).write_text(text))
         return path
 
 

@@ -4,12 +4,13 @@ Nothing here feeds back into a bake: radiance stays linear and unclamped in
 every EXR. These helpers make contact sheets a person can look at.
 """
 
-import os
 import struct
 import zlib
 from pathlib import Path
 
 import numpy as np
+
+from . import outputs
 
 __all__ = ["tonemap", "write_png", "contact_sheet", "upscale"]
 
@@ -46,11 +47,7 @@ def write_png(path, pixels: np.ndarray) -> Path:
     header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
     data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
             + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    temporary.write_bytes(data)
-    os.replace(temporary, path)
-    return path
+    return outputs.atomic_write(path, lambda target: Path(target).write_bytes(data))
 
 
 def upscale(image: np.ndarray, factor: int) -> np.ndarray:

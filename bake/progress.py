@@ -6,11 +6,14 @@ passes :class:`LinePrinter`; Blender operators forward to
 ``window_manager.progress_update`` and the status bar.
 """
 
+import queue
 import sys
+import threading
 import time
 from collections.abc import Callable
 
-__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps", "prefixed_steps"]
+__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps", "prefixed_steps",
+           "background_steps"]
 
 Progress = Callable[[float, str], None]
 
@@ -80,3 +83,52 @@ def prefixed_steps(prefix: str, steps):
         except StopIteration as done:
             return done.value
         yield fraction, prefix + message
+
+
+def background_steps(steps, poll: float = 0.1):
+    """Run a step generator on a worker thread; re-yield its (fraction, message)
+    steps, and between them the last one again at least every ``poll`` seconds.
+
+    A caller that advances one step per UI tick (Blender's modal operators)
+    thus never waits more than ``poll`` for control, even while one step of
+    the work takes seconds (a large map's slice): Esc is seen at once. Closing
+    this generator (the caller cancelled) tells the worker to stop at its next
+    step boundary and drops its result; the work writes nothing itself (the
+    caller writes files after the last step). Exceptions of the work are
+    raised here. Returns the work's return value.
+    """
+    events = queue.Queue()
+    stop = threading.Event()
+
+    def work():
+        try:
+            while not stop.is_set():
+                try:
+                    events.put(("step", next(steps)))
+                except StopIteration as done:
+                    events.put(("done", done.value))
+                    return
+        except BaseException as error:  # re-raised on the caller's thread
+            events.put(("error", error))
+        finally:
+            if stop.is_set():
+                steps.close()
+
+    worker = threading.Thread(target=work, name="glossy-steps", daemon=True)
+    worker.start()
+    last = (0.0, "working")
+    try:
+        while True:
+            try:
+                kind, value = events.get(timeout=poll)
+            except queue.Empty:
+                yield last
+                continue
+            if kind == "done":
+                return value
+            if kind == "error":
+                raise value
+            last = value
+            yield value
+    finally:
+        stop.set()

@@ -21,12 +21,11 @@ smallest error reported against it.
 
 import datetime
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
-from . import metrics, preview
+from . import metrics, outputs, preview
 from .bitmap_font import GLYPHS, HEIGHT, WIDTH
 
 __all__ = ["evaluate_object", "object_sheet", "write_report", "markdown", "METHOD_TITLES"]
@@ -184,9 +183,7 @@ def markdown(report: dict) -> str:
 
 
 def _atomic_text(path: Path, text: str):
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    temporary.write_text(text)
-    os.replace(temporary, path)
+    outputs.atomic_write(path, lambda target: Path(target).write_text(text))
 
 
 def write_report(folder, report: dict, sheets: dict) -> list:

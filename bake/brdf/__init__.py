@@ -51,13 +51,40 @@ def _split_top(text: str) -> list:
     return [p.strip() for p in parts]
 
 
+#: Limits of a spec string, checked before anything is parsed: real materials
+#: nest sum/layer two or three deep and name a handful of models; a spec past
+#: these is a mistake (or an attack) that would otherwise cost minutes.
+MAX_SPEC_LENGTH = 4096
+MAX_SPEC_DEPTH = 8
+MAX_SPEC_MODELS = 32
+
+
+def _check_size(text: str) -> None:
+    if len(text) > MAX_SPEC_LENGTH:
+        raise SpecError(f"a BRDF spec of {len(text)} characters is too long "
+                        f"(at most {MAX_SPEC_LENGTH})")
+    depth = deepest = 0
+    for char in text:
+        depth += (char == "(") - (char == ")")
+        deepest = max(deepest, depth)
+    if deepest > MAX_SPEC_DEPTH:
+        raise SpecError(f"a BRDF spec nested {deepest} deep is too deep "
+                        f"(sum/layer at most {MAX_SPEC_DEPTH} deep)")
+    models = text.count(":") + text.lower().count("layer(")
+    if models > MAX_SPEC_MODELS:
+        raise SpecError(f"a BRDF spec of {models} models is too large "
+                        f"(at most {MAX_SPEC_MODELS})")
+
+
 def parse(spec) -> BRDF:
-    """A BRDF model from a spec string (or the model itself). Raises SpecError."""
+    """A BRDF model from a spec string (or the model itself). Raises SpecError,
+    at once for a spec longer, deeper or larger than the MAX_SPEC_* limits."""
     if isinstance(spec, BRDF):
         return spec
     if not isinstance(spec, str) or not spec.strip():
         raise SpecError(f"a BRDF spec must be a non-empty string, not {spec!r}")
     text = spec.strip()
+    _check_size(text)
     head = text.split("(", 1)[0].strip().lower()
     if head in ("sum", "layer") and text.endswith(")") and "(" in text:
         inner = _split_top(text[text.index("(") + 1:-1])

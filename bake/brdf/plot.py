@@ -4,11 +4,11 @@ matplotlib is an optional dependency: only this module imports it, and only
 when a plot is asked for.
 """
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from .. import outputs
 from ..errors import BakeError
 from .vectors import spherical
 
@@ -73,12 +73,8 @@ def plot_brdf(model, path, views=(0.0, 30.0, 60.0, 80.0)):
     axis.set_ylim(0, max(1.05, float(rho.max()) * 1.05))
     axis.grid(alpha=0.3)
     axis.set_title(model.spec if len(model.spec) < 70 else model.spec[:67] + "...", fontsize=9)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial.png")
     try:
-        figure.savefig(temporary, dpi=100)
-        os.replace(temporary, path)
+        return outputs.atomic_write(path, lambda target: figure.savefig(target, dpi=100,
+                                                                        format="png"))
     finally:
         plt.close(figure)
-        if temporary.exists():
-            temporary.unlink()
-    return path
