@@ -22,13 +22,37 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def stamp(path) -> str:
+    """``size:mtime_ns`` of a file as it is now ('' if it does not exist)."""
+    try:
+        status = Path(path).stat()
+    except OSError:
+        return ""
+    return f"{status.st_size}:{status.st_mtime_ns}"
+
+
+def stamps(text: str) -> dict:
+    """{absolute path: stamp} recorded in a ``*_stamp`` JSON property."""
+    try:
+        values = json.loads(text or "{}")
+    except ValueError:
+        return {}
+    return values if isinstance(values, dict) else {}
+
+
 def bake_status(material_settings, probe_path) -> str:
-    """``missing`` (no file), ``stale`` (inputs changed) or ``up to date``."""
+    """``missing`` (no file), ``damaged`` (a baked file is not as Glossy wrote it:
+    truncated, rewritten or replaced, judged by its recorded size and time),
+    ``stale`` (inputs changed) or ``up to date``."""
     if not material_settings.bake_path or not Path(material_settings.bake_path).exists():
         return "missing"
     if any(material_settings.diffuse) and not (
             material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):
         return "missing"
+    for path, written in stamps(material_settings.bake_stamp).items():
+        if path in (material_settings.bake_path, material_settings.diffuse_path) and \
+                stamp(path) != written:
+            return "damaged"
     if material_settings.bake_hash != bake_inputs_hash(material_settings, probe_path):
         return "stale"
     return "up to date"

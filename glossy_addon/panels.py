@@ -2,6 +2,7 @@
 
 import bpy
 
+from . import ownership
 from .world import find_environment_image
 
 
@@ -76,7 +77,10 @@ class GLOSSY_PT_probe(bpy.types.Panel):
         row.operator("glossy.clear", icon="TRASH")
         if settings.probe_path:
             layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
-            if settings.probe_reason:
+            problem = ownership.probe_problem(context.object)
+            if problem:
+                _reason(layout, problem, icon="ERROR")
+            elif settings.probe_reason:
                 _reason(layout, settings.probe_reason)
 
 
@@ -120,6 +124,14 @@ class GLOSSY_PT_material(bpy.types.Panel):
         obj = context.object
         probe = obj.glossy.probe_path if obj is not None else ""
         layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
+        if obj is not None and settings.bake_object and settings.bake_object != obj.name:
+            _reason(layout, f"Shows {settings.bake_object}'s bake: this material is shared, "
+                            f"and one material holds one bake", icon="ERROR")
+        elif obj is not None:
+            others = ownership.shared_probe_users(context.material, obj)
+            if others:
+                _reason(layout, f"Shared with {', '.join(others)} (other probes): the last "
+                                f"bake shows on all of them", icon="ERROR")
         if settings.size_reason:
             _reason(layout, f"Baked at {settings.size_reason}", icon="TEXTURE")
         row = layout.row(align=True)

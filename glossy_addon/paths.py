@@ -5,11 +5,9 @@ from pathlib import Path
 
 import bpy
 
-from ..bake import exr
+from ..bake import outputs
 from ..bake.errors import BakeError
 from . import ADDON_PACKAGE
-
-GENERATOR_PREFIX = "glossy"
 
 
 def output_folder() -> Path:
@@ -36,12 +34,9 @@ def output_folder() -> Path:
 
 
 def written_by_glossy(path: Path) -> bool:
-    """True if ``path`` is an EXR whose metadata says Glossy wrote it."""
-    try:
-        _, meta = exr.read(path)
-    except BakeError:
-        return False
-    return str(meta.get("generator", "")).startswith(GENERATOR_PREFIX)
+    """True if ``path`` is a file whose metadata says Glossy wrote it, even a
+    truncated one (bake.outputs.written_by_glossy)."""
+    return outputs.written_by_glossy(path)
 
 
 def check_may_write(path: Path) -> None:

@@ -103,6 +103,13 @@ class GlossyObjectSettings(bpy.types.PropertyGroup):
                ("WORLD", "World Only", "Resample the world's environment image")],
     )
     probe_path: bpy.props.StringProperty(name="Probe File", subtype="FILE_PATH")
+    probe_owner: bpy.props.StringProperty(
+        name="Probe Owner", description="Name of the object the probe was captured for (a "
+        "copy made with Shift+D or Alt+D holds the path but not the probe; ownership.py)")
+    probe_stamp: bpy.props.StringProperty(
+        name="Probe Stamp", description="Size and time of the probe file as written")
+    probe_history: bpy.props.StringProperty(
+        name="Probe Files", description="Probe files this object's captures wrote (JSON)")
     probe_centre: bpy.props.FloatVectorProperty(name="Probe Centre", size=3, subtype="XYZ")
 
     @classmethod
@@ -161,13 +168,24 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Map Size",
         description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
                     "(Auto; bake time grows with its square)",
-        default=256, min=0, max=2048)
+        default=256, min=0, max=1024)
     chosen_size: bpy.props.IntProperty(name="Baked Size", description="Rows of the last bake")
     size_reason: bpy.props.StringProperty(
         name="Size Reason", description="Why the last bake has the size it has")
     bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
+    bake_owner: bpy.props.StringProperty(
+        name="Bake Owner", description="Name of the material the bake was made for (a copy "
+        "of the material holds the path but not the files; ownership.py)")
+    bake_probe: bpy.props.StringProperty(
+        name="Baked From", description="Probe file the last bake filtered", subtype="FILE_PATH")
+    bake_object: bpy.props.StringProperty(
+        name="Baked For", description="Object whose probe the last bake filtered")
+    bake_stamp: bpy.props.StringProperty(
+        name="Bake Stamp", description="Size and time of the baked files as written")
+    bake_history: bpy.props.StringProperty(
+        name="Baked Files", description="Files this material's bakes wrote (JSON)")
     bake_time: bpy.props.FloatProperty(name="Bake Time")
     validation_error: bpy.props.FloatProperty(
         name="Error vs Cycles", description="Relative RMS (luminance) of EEVEE with Glossy "

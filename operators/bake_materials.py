@@ -1,18 +1,21 @@
 """glossy.bake_materials and glossy.attach_materials: the active object's Glossy materials."""
 
+import json
 import time
 
 import bpy
 import numpy as np
 
-from ..bake import atlas, exr, prefilter
+from ..bake import atlas, exr, outputs, prefilter
 from ..bake.errors import BakeError
-from ..bake.progress import prefixed_steps, run_steps, scaled
+from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled
+from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
+from ..glossy_addon.checks import check_settings
 from ..glossy_addon.materials import stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
-from ..glossy_addon.paths import check_may_write, output_folder
+from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 
 
@@ -64,36 +67,51 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
     bl_options = {"REGISTER", "UNDO"}
 
     def _prepare(self, context):
-        """(object, probe, probe meta, folder, materials to bake) or raise BakeError."""
+        """(object, probe, probe meta, probe path, materials to bake) or raise BakeError.
+
+        Every check that can refuse a bake runs here, before any file is written:
+        the object's own probe, the settings, the atlas against the GPU's texture
+        limit, and the output files (claimed: never another owner's or a user's).
+        Materials shared with objects that have other probes are noted in
+        ``self._warnings``."""
         obj, _ = _object_with_probe(context)
         probe_path = obj.glossy.probe_path
         if not probe_path:
             raise BakeError(f"{obj.name} has no probe yet: capture one first")
+        problem = ownership.probe_problem(obj)
+        if problem:
+            raise BakeError(problem)
         probe, meta = exr.read(bpy.path.abspath(probe_path))
         folder = output_folder()
-        todo = []
+        todo, taken = [], set()
+        self._warnings = []
         for material in _materials(obj):
             settings = material.glossy
-            if not 4 <= settings.map_size <= 2048:
-                kind = "the map size's upper bound" if settings.size_mode == "AUTO" \
-                    else "map size"
-                raise BakeError(f"{material.name}: {kind} must be in [4, 2048], "
-                                f"not {settings.map_size}")
-            if not 2 <= settings.slices <= 256:
-                raise BakeError(f"{material.name}: slices must be in [2, 256], "
-                                f"not {settings.slices}")
-            if bake_status(settings, probe_path) != "up to date":
-                path = folder / f"{bpy.path.clean_name(obj.name)}_" \
-                                f"{bpy.path.clean_name(material.name)}_{settings.method}.exr"
-                check_may_write(path)
-                todo.append((material.name, path))
+            check_settings(material)
+            if bake_status(settings, probe_path) == "up to date":
+                continue
+            stem = f"{bpy.path.clean_name(obj.name)}_{bpy.path.clean_name(material.name)}"
+            path = ownership.claim(folder, stem, f"_{settings.method}.exr", material, taken)
+            taken.add(path)
+            diffuse_path = None
+            if any(settings.diffuse):
+                diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
+                taken.add(diffuse_path)
+            others = ownership.shared_probe_users(material, obj)
+            if others:
+                self._warnings.append(
+                    f"{material.name} is also used by {', '.join(others)}, whose probe differs: "
+                    f"one material holds one bake, so all its users now show {obj.name}'s "
+                    f"(give each object its own copy of the material)")
+            todo.append((material.name, path, diffuse_path))
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
-    def _bake_steps(material, path, probe, meta, probe_path):
+    def _bake_steps(material, path, diffuse_path, probe, meta, probe_path, obj_name):
         """One material's bake as steps: yields (fraction, message) after the fit, each
-        batch of slices and the diffuse map; writes the files only at the end, so a
-        bake stopped between steps leaves nothing. Returns the step's message."""
+        batch of slices and the diffuse map; writes the files only at the end, both
+        or neither, so a bake stopped between steps leaves nothing. Returns the step's
+        message."""
         settings = material.glossy
         layout = meta.get("layout", "cube")
         auto = settings.size_mode == "AUTO"
@@ -101,25 +119,23 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         max_size = settings.map_size if auto else None
         if settings.method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
-            baked = yield from _scaled(prefilter.prefilter_steps(
-                probe, settings.brdf_spec(), "split-sum", face, layout=layout), 0.0, 0.85)
+            baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
+                probe, settings.brdf_spec(), "split-sum", face, layout=layout)), 0.0, 0.85)
             image, atlas_meta = atlas.pack_split_sum(baked)
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
-            baked = yield from _scaled(prefilter.prefilter_steps(
+            baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
                 probe, settings.brdf_spec(), settings.method, size, slices=settings.slices,
                 lobes_count=settings.lobes if settings.method == "3d" else 1, layout=layout,
-                max_size=max_size), 0.0, 0.85)
+                max_size=max_size)), 0.0, 0.85)
             image, atlas_meta = atlas.pack(baked)
             rows, reason = baked.meta["size"], baked.meta["size_reason"]
         diffuse = None
-        diffuse_path = path.with_name(path.stem.rsplit("_", 1)[0] + "_diffuse.exr")
-        if any(settings.diffuse):
-            check_may_write(diffuse_path)  # before anything is written
+        if diffuse_path is not None:
             color = "/".join(f"{c:g}" for c in settings.diffuse)
-            irradiance = yield from _scaled(prefilter.prefilter_steps(
+            irradiance = yield from _scaled(background_steps(prefilter.prefilter_steps(
                 probe, f"lambert:color={color}", "irradiance", size, layout=layout,
-                max_size=max_size), 0.85, 0.95)
+                max_size=max_size)), 0.85, 0.95)
             diffuse = atlas.pack_irradiance(irradiance)
         half = atlas.storage_precision(image) == "half"
         if not half:
@@ -127,40 +143,45 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
                            "material": material.name, "size_reason": reason,
                            "precision": "half" if half else "float32"})
-        exr.write(path, image, atlas_meta, half=half)  # atomic: never a half-written file
+        with outputs.Staged() as staged:  # both files or neither, each whole
+            staged.add(path, lambda target: exr.write(target, image, atlas_meta, half=half))
+            if diffuse is not None:
+                diffuse_image, diffuse_meta = diffuse
+                diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
+                                     "material": material.name, "precision": "float32"})
+                staged.add(diffuse_path, lambda target: exr.write(target, diffuse_image,
+                                                                  diffuse_meta))
+        written = [path] + ([diffuse_path] if diffuse is not None else [])
         settings.bake_path = str(path)
-        if diffuse is not None:
-            image, diffuse_meta = diffuse
-            diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                                 "material": material.name, "precision": "float32"})
-            exr.write(diffuse_path, image, diffuse_meta)
-            settings.diffuse_path = str(diffuse_path)
-        else:
-            settings.diffuse_path = ""
+        settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
+        settings.bake_owner = material.name
+        settings.bake_probe = probe_path
+        settings.bake_object = obj_name
+        settings.bake_stamp = json.dumps({str(p): ownership.stamp(p) for p in written})
+        ownership.remember(settings, "bake_history", *map(str, written))
         settings.chosen_size = int(rows)
         settings.size_reason = reason
         settings.bake_hash = bake_inputs_hash(settings, probe_path)
         settings.bake_time = time.time()
         return f"baked {material.name}: {reason}"
 
-    @classmethod
-    def _bake_one(cls, material, path, probe, meta, probe_path, progress=None):
-        return run_steps(cls._bake_steps(material, path, probe, meta, probe_path), progress)
-
     def execute(self, context):
         try:
-            _, probe, meta, probe_path, todo = self._prepare(context)
+            obj, probe, meta, probe_path, todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                for index, (name, path) in enumerate(todo):
+                for index, (name, path, diffuse_path) in enumerate(todo):
                     progress(index / max(len(todo), 1), f"baking {name}")
-                    self._bake_one(bpy.data.materials[name], path, probe, meta, probe_path,
-                                   scaled(progress, index / len(todo), (index + 1) / len(todo)))
+                    run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
+                                               probe, meta, probe_path, obj.name),
+                              scaled(progress, index / len(todo), (index + 1) / len(todo)))
                     progress((index + 1) / len(todo), f"baked {name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
                 progress(1.0, f"baked {len(todo)} material(s)")
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
+        for warning in self._warnings:
+            self.report({"WARNING"}, warning)
         self.report({"INFO"}, f"Glossy baked {len(todo)} material(s)")
         return {"FINISHED"}
 
@@ -169,16 +190,19 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
     progress_title = "bake materials"
 
     def _begin(self, context):
-        _, self._probe, self._meta, self._probe_path, todo = self._prepare(context)
+        obj, self._probe, self._meta, self._probe_path, todo = self._prepare(context)
+        self._object_name = obj.name
         return todo
 
     def _run_step(self, context, step):
-        name, path = step
-        steps = self._bake_steps(bpy.data.materials[name], path, self._probe, self._meta,
-                                 self._probe_path)
+        name, path, diffuse_path = step
+        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, self._probe,
+                                 self._meta, self._probe_path, self._object_name)
         return prefixed_steps(f"{name}: ", steps)
 
     def _done_message(self):
+        for warning in self._warnings:
+            self.report({"WARNING"}, warning)
         return f"Glossy baked {self._done} material(s)"
 
     def _cancel_message(self):
@@ -197,6 +221,13 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         obj, _ = _object_with_probe(context)
         attached = 0
         try:
+            for material in _materials(obj):  # every check before the first change
+                if material.glossy.bake_path:
+                    check_settings(material)
+                    if bake_status(material.glossy, obj.glossy.probe_path) == "damaged":
+                        raise BakeError(f"{material.name}: the baked file "
+                                        f"{material.glossy.bake_path} is damaged or was "
+                                        f"changed since the bake: bake again")
             for material in _materials(obj):
                 path = material.glossy.bake_path
                 if not path:

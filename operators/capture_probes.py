@@ -1,5 +1,6 @@
 """glossy.capture_probes: a cube probe at the centre of each selected mesh object."""
 
+import json
 import time
 
 import bpy
@@ -7,10 +8,11 @@ import numpy as np
 
 from ..bake import envmap, exr, lobes, resolution
 from ..bake.errors import BakeError
+from ..glossy_addon import ownership
 from ..glossy_addon.capture import CubeCapture
 from ..glossy_addon.centres import probe_centre
 from ..glossy_addon.modal import TimerSteps
-from ..glossy_addon.paths import check_may_write, output_folder
+from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.world import find_environment_image, image_pixels
 
@@ -97,17 +99,21 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             self._faces_chosen[obj.name] = (face, reason)
         return plan
 
-    def _path(self, folder, name):
-        path = folder / f"{bpy.path.clean_name(name)}_probe.exr"
-        check_may_write(path)
-        return path
+    def _claim_paths(self, folder, plan):
+        """Each planned object's probe file, claimed before anything is rendered:
+        never a file another object owns, never the same file twice in one run."""
+        self._paths = {}
+        for name, _, _ in plan:
+            obj = bpy.data.objects[name]
+            self._paths[name] = ownership.claim(folder, bpy.path.clean_name(name), "_probe.exr",
+                                                obj, taken=set(self._paths.values()))
 
     def _finish(self, context, name, centre, used, faces_or_cube, folder):
         obj = bpy.data.objects[name]
         settings = obj.glossy
         cube = faces_or_cube if isinstance(faces_or_cube, np.ndarray) else \
             np.concatenate(faces_or_cube, axis=1)
-        path = self._path(folder, name)
+        path = self._paths[name]
         meta = {"generator": "glossy-blender", "layout": "cube", "size": cube.shape[0],
                 "object": name, "centre": [float(c) for c in centre], "centre_mode": used,
                 "source": settings.probe_source, "engine": settings.capture_engine,
@@ -115,6 +121,9 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         meta["size_reason"] = self._faces_chosen[name][1]
         exr.write(path, cube, meta)
         settings.probe_path = str(path)
+        settings.probe_owner = name
+        settings.probe_stamp = json.dumps({str(path): ownership.stamp(path)})
+        ownership.remember(settings, "probe_history", str(path))
         settings.probe_reason = self._faces_chosen[name][1]
         settings.probe_centre = tuple(float(c) for c in centre)
         return path
@@ -136,8 +145,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         try:
             plan = self._plan(context)
             folder = output_folder()
-            for name, _, _ in plan:
-                self._path(folder, name)
+            self._claim_paths(folder, plan)
             written = []
             with BlenderProgress(context, "capture probes") as progress:
                 for index, (name, centre, used) in enumerate(plan):
@@ -166,8 +174,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
     def _begin(self, context):
         self._plan_items = self._plan(context)
         self._folder = output_folder()
-        for name, _, _ in self._plan_items:
-            self._path(self._folder, name)
+        self._claim_paths(self._folder, self._plan_items)
         self._faces = {}
         steps = []
         for index, (name, _, _) in enumerate(self._plan_items):

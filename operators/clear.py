@@ -1,11 +1,11 @@
 """glossy.clear: undo Glossy on the selected objects (probes, bakes, lookups)."""
 
-from pathlib import Path
+import os
 
 import bpy
 
+from ..glossy_addon import ownership
 from ..glossy_addon.materials import restore_original
-from ..glossy_addon.paths import written_by_glossy
 
 
 def _meshes(context):
@@ -42,55 +42,125 @@ class GLOSSY_OT_clear(bpy.types.Operator):
             return False
         return True
 
-    def _forget(self, path_text, counts):
-        """Delete one forgotten file if it is Glossy's; drop images loaded from it."""
-        if not path_text:
-            return
-        path = Path(bpy.path.abspath(path_text))
-        for image in list(bpy.data.images):
-            if image.filepath and Path(bpy.path.abspath(image.filepath)) == path \
-                    and image.users == 0:
-                bpy.data.images.remove(image)
-        if not self.delete_files or not path.exists():
-            return
-        if written_by_glossy(path):
-            path.unlink()
-            counts["deleted"] += 1
-        else:
-            counts["kept"].append(path.name)
+    def _plan(self, objects):
+        """(files to delete {path: stamp}, changes to apply [callables], kept [notes]).
 
-    def execute(self, context):
-        counts = {"deleted": 0, "kept": [], "restored": 0, "objects": 0}
-        seen = set()
-        for obj in _meshes(context):
-            counts["objects"] += 1
-            if self.probes and obj.glossy.probe_path:
-                probe = obj.glossy.probe_path
-                obj.glossy.probe_path = ""
-                self._forget(probe, counts)
+        Nothing is changed here. A copy's probe (Shift+D, Alt+D) and a shared
+        material showing the bake of an object outside the selection are left
+        alone and said so; files another owner still records are never listed."""
+        files, changes, kept, seen = {}, [], [], set()
+        names = {obj.name for obj in objects}
+        for obj in objects:
+            settings = obj.glossy
+            if self.probes and settings.probe_path:
+                if ownership.owns_probe(obj):
+                    written = ownership.stamps(settings.probe_stamp)
+                    for path in ownership.object_files(obj):
+                        files[path] = written.get(str(path), "")
+                else:
+                    kept.append(ownership.probe_problem(obj).split(",")[0] + " (a copy's)")
+                changes.append(lambda obj=obj: _forget_probe(obj))
             for slot in obj.material_slots:
                 material = slot.material
                 if material is None or material.name in seen:
                     continue
-                if self.lookups and material.glossy.original is not None:
-                    material = restore_original(material)
-                    counts["restored"] += 1
                 seen.add(material.name)
+                glossy = material.glossy
+                baked_for = glossy.bake_object
+                if glossy.bake_path and baked_for and baked_for not in names and \
+                        baked_for in bpy.data.objects:
+                    kept.append(f"{material.name} (it shows {baked_for}'s bake; clear "
+                                f"{baked_for} to remove it)")
+                    continue
                 if self.bakes:
-                    settings = material.glossy
-                    paths = [settings.bake_path, settings.diffuse_path]
-                    settings.bake_path = settings.diffuse_path = settings.bake_hash = ""
-                    settings.bake_time = 0.0
-                    for path in paths:
-                        self._forget(path, counts)
-        message = (f"Glossy cleared {counts['objects']} object(s): {counts['deleted']} file(s) "
-                   f"deleted, {counts['restored']} material(s) restored")
-        if counts["kept"]:
-            self.report({"WARNING"}, message + "; not written by Glossy, kept: "
-                        + ", ".join(counts["kept"]))
+                    written = ownership.stamps(glossy.bake_stamp)
+                    for path in ownership.material_files(material):
+                        files[path] = written.get(str(path), "")
+                changes.append(lambda name=material.name: self._clear_material(name))
+        return files, changes, kept
+
+    def _clear_material(self, name):
+        material = bpy.data.materials[name]
+        if self.lookups and material.glossy.original is not None:
+            material = restore_original(material)
+            self._counts["restored"] += 1
+        if self.bakes:
+            glossy = material.glossy
+            glossy.bake_path = glossy.diffuse_path = glossy.bake_hash = ""
+            glossy.bake_owner = glossy.bake_probe = glossy.bake_object = ""
+            glossy.bake_stamp = glossy.bake_history = ""
+            glossy.bake_time = 0.0
+
+    def execute(self, context):
+        objects = _meshes(context)
+        self._counts = {"restored": 0}
+        files, changes, kept = self._plan(objects)
+        doomed, foreign = [], []
+        if self.delete_files:
+            for path, written in files.items():
+                if not path.exists():
+                    continue
+                if ownership.is_glossy_file(path, written):
+                    doomed.append(path)
+                else:
+                    foreign.append(path.name)
+        try:
+            trash = _move_aside(doomed)  # all or none: nothing is changed if one fails
+        except OSError as error:
+            self.report({"ERROR"}, f"Glossy cannot delete {error.filename} "
+                        f"({error.strerror}); nothing was cleared")
+            return {"CANCELLED"}
+        for change in changes:
+            change()
+        for moved in trash:
+            try:
+                moved.unlink()
+            except OSError:  # pragma: no cover - the folder changed meanwhile
+                pass
+        _drop_unused_images(files)
+        message = (f"Glossy cleared {len(objects)} object(s): {len(doomed)} file(s) deleted, "
+                   f"{self._counts['restored']} material(s) restored")
+        notes = []
+        if foreign:
+            notes.append("not written by Glossy, kept: " + ", ".join(foreign))
+        if kept:
+            notes.append("left alone: " + "; ".join(kept))
+        if notes:
+            self.report({"WARNING"}, message + "; " + "; ".join(notes))
         else:
             self.report({"INFO"}, message)
         return {"FINISHED"}
+
+
+def _forget_probe(obj):
+    settings = obj.glossy
+    settings.probe_path = settings.probe_owner = settings.probe_stamp = ""
+    settings.probe_history = ""
+
+
+def _move_aside(paths):
+    """Rename each file to a hidden name beside it; on the first failure put the
+    moved ones back and raise the OSError (so a read-only folder changes nothing)."""
+    moved = []
+    try:
+        for path in paths:
+            aside = path.with_name(f".{path.name}.glossy-clear")
+            os.replace(path, aside)
+            moved.append((aside, path))
+    except OSError:
+        for aside, path in reversed(moved):
+            os.replace(aside, path)
+        raise
+    return [aside for aside, _ in moved]
+
+
+def _drop_unused_images(paths):
+    """Remove Blender images loaded from deleted files that nothing uses any more."""
+    paths = set(paths)
+    for image in list(bpy.data.images):
+        if image.filepath and image.users == 0 and \
+                ownership.resolved(image.filepath) in paths:
+            bpy.data.images.remove(image)
 
 
 classes = (GLOSSY_OT_clear,)

@@ -24,7 +24,7 @@ def test_bake_is_skipped_when_unchanged_and_redone_when_stale_or_missing(tmp_pat
     # Auto within Map Size 8; a half-float atlas is uploaded as half floats.
     assert r["chosen_size"] == 8 and r["size_reason"].startswith("8 rows: limited by Max Map")
     assert r["atlas_precision"] == "half" and r["atlas_use_half_precision"] is True
-    assert "the map size's upper bound must be in [4, 2048], not 0" in r["size_zero"]
+    assert "the map size's upper bound must be in [4, 1024], not 0" in r["size_zero"]
     assert r["reload_missing_status"] == "missing"
     assert r["image_has_data_missing"] is False
     assert r["rebake"] == ["FINISHED"] and r["reattach"] == ["FINISHED"]
