@@ -25,7 +25,7 @@ from pathlib import Path
 
 import bpy
 
-from ..bake import outputs
+from ..bake import exr, outputs
 from ..bake.errors import BakeError
 from .bookkeeping import stamp, stamps  # noqa: F401  (re-exported)
 
@@ -61,8 +61,7 @@ def is_glossy_file(path, recorded_stamp: str = "") -> bool:
     except OSError:
         return False
     written_size = int(recorded_stamp.split(":", 1)[0] or 0)
-    return size < written_size and (head == b"" or b"\x76\x2f\x31\x01".startswith(head)
-                                    or head == b"\x76\x2f\x31\x01")
+    return size < written_size and exr.EXR_MAGIC.startswith(head)  # b"" too
 
 
 # --- who records a file -----------------------------------------------------------

@@ -11,13 +11,15 @@ watched through Blender itself: render_post counts the capture's face
 renders, and the materials' bake paths show the bake's finished steps.
 """
 
-import json
 import sys
 import time
 import traceback
 from pathlib import Path
 
 import bpy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _live import run, viewport_override, wait_until  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 workdir, result_path = Path(args[0]), Path(args[1])
@@ -29,11 +31,6 @@ def count_face(*_):
     faces_rendered.append(time.monotonic())
 
 
-def viewport_override():
-    window = bpy.context.window_manager.windows[0]
-    area = next(a for a in window.screen.areas if a.type == "VIEW_3D")
-    region = next(r for r in area.regions if r.type == "WINDOW")
-    return window, {"window": window, "area": area, "region": region}
 
 
 def files():
@@ -41,12 +38,6 @@ def files():
     return sorted(p.name for p in folder.iterdir()) if folder.is_dir() else []
 
 
-def wait_until(condition, timeout=120.0):
-    start = time.monotonic()
-    while not condition():
-        if time.monotonic() - start > timeout:
-            raise TimeoutError("timed out waiting in the live window")
-        yield 0.02
 
 
 def scenario():
@@ -165,19 +156,4 @@ def scenario():
     report["panel_errors"] = failed
 
 
-steps = scenario()
-
-
-def tick():
-    try:
-        return next(steps)
-    except StopIteration:
-        report["ok"] = True
-    except Exception:
-        report["error"] = traceback.format_exc()
-    result_path.write_text(json.dumps(report, indent=1))
-    bpy.ops.wm.quit_blender()
-    return None
-
-
-bpy.app.timers.register(tick, first_interval=1.0)
+run(scenario(), report, result_path)
