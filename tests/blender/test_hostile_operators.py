@@ -101,6 +101,8 @@ def test_settings_that_cannot_work_are_refused_at_once(result):
     assert "16896-row texture, past the GPU's 16384-row limit" in _error(r["atlas"])
     assert "at most 62" in r["atlas"][1]
     assert "32896-row texture" in _error(r["atlas_lobes"])
+    assert "do not fit the GPU's 16384-row texture limit at any map size" in \
+        _error(r["atlas_auto"])
     assert "Fresnel IOR 0.5" in _error(r["fresnel"])
     assert "too deep" in _error(r["nested"])
     assert r["map_size_max"] == 1024

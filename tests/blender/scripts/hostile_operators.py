@@ -269,6 +269,9 @@ def refused_settings():
     out["atlas"] = call(bpy.ops.glossy.bake_materials)
     settings.slices, settings.lobes, settings.map_size = 16, 4, 512
     out["atlas_lobes"] = call(bpy.ops.glossy.bake_materials)
+    settings.slices, settings.size_mode = 256, "AUTO"  # 256 x 4 lobes: too tall at any size
+    out["atlas_auto"] = call(bpy.ops.glossy.bake_materials)
+    settings.size_mode = "FIXED"
     settings.slices, settings.lobes, settings.map_size = 3, 1, 8
     settings.fresnel_ior = 0.5
     out["fresnel"] = call(bpy.ops.glossy.bake_materials)
