@@ -32,6 +32,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/prefilter.py
 	$(PY) benchmarks/exr_codec.py
 	$(PY) benchmarks/validate.py
+	$(PY) benchmarks/separable.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot

@@ -243,6 +243,120 @@ def cmd_reference(args):
     print(f"wrote {output} ({pixels} pixels, {model.spec} against {Path(args.input).name})")
 
 
+def _report_table(args, model, progress):
+    """Errors per parameterization, method, term count and texture size (section 5.2)."""
+    from . import separable
+
+    sizes = sorted(set(args.sizes))
+    largest = sizes[-1]
+    pairs = separable.stratified_pairs(args.strata)
+    rows, by_terms, by_size = [], {}, {}
+    jobs = [(param, size) for param in separable.PARAMETERIZATIONS for size in sizes]
+    for index, (param, size) in enumerate(jobs):
+        matrix = separable.matrix_for(model, param, size, args.map)
+        for method in separable.METHODS:
+            errors = []
+            if matrix.complete:  # truncations of one factorization are the k-term ones
+                fac = separable.factorize(model, param, method, args.terms, size, args.map,
+                                          args.p, matrix=matrix)
+                errors = [separable.error(fac, model, pairs, k)
+                          for k in range(1, args.terms + 1)]
+            else:  # weighted fits are not nested: one per term count
+                for k in range(1, args.terms + 1):
+                    fac = separable.factorize(model, param, method, k, size, args.map,
+                                              args.p, matrix=matrix)
+                    errors.append(separable.error(fac, model, pairs))
+            rows.append((param, method, size, errors))
+            if size == largest:
+                by_terms[(param, method)] = errors
+            by_size.setdefault((param, method), []).append((size, errors[0]))
+        if progress:
+            progress((index + 1) / len(jobs), f"{param} at {size}^2")
+    head = "  ".join(f"{k} term{'s' if k > 1 else ' '}" for k in range(1, args.terms + 1))
+    print(f"cosine-weighted relative RMS error of outgoing radiance, {model.spec}, "
+          f"{len(pairs[0])} stratified pairs, {args.map} hemisphere maps:")
+    print(f"{'parameterization':18s} {'method':6s} {'size':>4s}  {head}")
+    for param, method, size, errors in rows:
+        print(f"{param:18s} {method:6s} {size:4d}  " + "  ".join(f"{e:7.4f}" for e in errors))
+    best = {method: min(separable.PARAMETERIZATIONS, key=lambda q: by_terms[(q, method)][-1])
+            for method in separable.METHODS}
+    single_nd = min(by_terms[(q, "nd")][0] for q in separable.PARAMETERIZATIONS)
+    print(f"best at {largest}^2: SVD {best['svd']}, ND {best['nd']} (single-term ND "
+          f"{single_nd:.4f}, {args.terms}-term SVD {by_terms[(best['svd'], 'svd')][-1]:.4f})")
+    return by_terms, by_size, largest
+
+
+def _report_plots(prefix, model, by_terms, by_size, largest, terms):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    for name, title in (("terms", f"Figure 5: error against terms ({largest}^2)"),
+                        ("sizes", "Figure 6: error against texture size (1 term)")):
+        figure, axis = plt.subplots(figsize=(6.4, 4.2))
+        for (param, method), values in sorted(by_terms.items() if name == "terms"
+                                              else by_size.items()):
+            xs = list(range(1, terms + 1)) if name == "terms" else [s for s, _ in values]
+            ys = values if name == "terms" else [e for _, e in values]
+            axis.plot(xs, ys, marker="o", linestyle="-" if method == "svd" else "--",
+                      label=f"{param} ({method.upper()})")
+        axis.set_xlabel("terms" if name == "terms" else "texture size (texels per side)")
+        axis.set_ylabel("relative RMS error of f cos(theta_i)")
+        axis.set_yscale("log")
+        if name == "sizes":
+            axis.set_xscale("log", base=2)
+        axis.grid(alpha=0.3)
+        axis.set_title(f"{title}\n{model.spec[:60]}", fontsize=9)
+        axis.legend(fontsize=7)
+        path = Path(f"{prefix}_{name}.png")
+        outputs.atomic_write(path, lambda target, figure=figure: figure.savefig(
+            target, dpi=100, format="png"))
+        plt.close(figure)
+        written.append(path)
+    return written
+
+
+def cmd_factorize(args):
+    from . import brdf, separable
+
+    output = _check_output(args.output) if args.output else None
+    if output is None and not args.report:
+        raise BakeError("give -o OUT.exr (the factor textures) or --report (the error table)")
+    if args.plots and not args.report:
+        raise BakeError("--plots goes with --report")
+    if args.plots:
+        for name in ("terms", "sizes"):
+            outputs.check_target(f"{args.plots}_{name}.png", ".png", what="--plots")
+    for size in [args.size] + (args.sizes if args.report else []):
+        separable.check_arguments(size, args.terms, args.param, args.map, args.method, args.p)
+    if not 2 <= args.strata <= 400:
+        raise BakeError(f"--strata must be in [2, 400], not {args.strata}")
+    model = brdf.parse(args.brdf)
+    progress = None if args.quiet else LinePrinter()
+    if args.report:
+        by_terms, by_size, largest = _report_table(args, model, progress)
+        if args.plots:
+            for path in _report_plots(args.plots, model, by_terms, by_size, largest,
+                                      args.terms):
+                print(f"wrote {path}")
+    if output:
+        fac = separable.factorize(model, args.param, args.method, args.terms, args.size,
+                                  args.map, args.p, progress=progress)
+        exr.write(output, fac.layers(), fac.meta())
+        print(f"wrote {output} ({fac.terms} term(s) of {args.size}^2 {args.map} maps, "
+              f"{args.param}, {args.method.upper()}; error "
+              f"{separable.error(fac, model):.4f})")
+
+
+def _sizes(text):
+    try:
+        return [int(x) for x in text.split(",") if x]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be sizes like 16,32,64, not {text!r}") from None
+
+
 def _vector(text):
     try:
         values = [float(x) for x in text.split(",")]
@@ -371,6 +485,33 @@ def _build_parser():
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf probe texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(run=cmd_reference)
+
+    from .separable import MAPS, METHODS, PARAMETERIZATIONS
+
+    p = commands.add_parser("factorize", help="separable approximation of a BRDF (Kautz & "
+                                              "McCool 1999): factor textures, error report")
+    p.add_argument("--brdf", required=True, help="BRDF spec (any of bake.brdf)")
+    p.add_argument("--param", default="half-difference", choices=PARAMETERIZATIONS,
+                   help="parameterization (default half-difference)")
+    p.add_argument("--method", default="svd", choices=METHODS, help="truncated SVD or ND")
+    p.add_argument("--terms", type=int, default=1, help="pairs of textures (1-16)")
+    p.add_argument("--size", type=int, default=64, help="texels per side (4-256)")
+    p.add_argument("--map", default="xy", choices=MAPS, help="hemisphere map: xy or parabolic")
+    p.add_argument("--p", type=float, default=2.0, help="ND: the p of the column p-norms")
+    p.add_argument("--report", action="store_true",
+                   help="print the error table over parameterizations, methods, terms "
+                        "(1..--terms) and --sizes")
+    p.add_argument("--sizes", type=_sizes, default=[16, 32, 64],
+                   help="report: texture sizes (default 16,32,64)")
+    p.add_argument("--strata", type=int, default=90,
+                   help="report: strata per hemisphere; every incident stratum is paired with "
+                        "every outgoing one (default 90: 8100 pairs)")
+    p.add_argument("--plots", metavar="PREFIX",
+                   help="report: write PREFIX_terms.png (Figure 5) and PREFIX_sizes.png "
+                        "(Figure 6)")
+    p.add_argument("-o", "--output", help="output EXR: layers g<k>, h<k> (RGB) + metadata")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_factorize)
 
     p = commands.add_parser("brdf", help="describe a BRDF spec; --plot draws it")
     p.add_argument("spec", help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")

@@ -11,7 +11,7 @@ from .microfacet import beckmann_d, reflect_about, sample_beckmann_h
 from .params import Param
 from .vectors import around_axis, broadcast_wo_u, cosine_hemisphere, dot, half_vector, reflect
 
-__all__ = ["Lambert", "Phong", "BlinnPhong", "Ward", "CookTorrance"]
+__all__ = ["Lambert", "Phong", "BlinnPhong", "Ward", "CookTorrance", "Velvet"]
 
 
 def _cos_power_sample(axis, u, exponent):
@@ -226,4 +226,33 @@ class CookTorrance(_HalfVectorSampled):
         f = fresnel.dielectric(cos_h, self.params["ior"])
         lobe = f * beckmann_d(h, self.ax, self.ay) * g / (4.0 * wi[..., 2] * wo[..., 2])
         return (lobe[..., None] * np.asarray(self.params["ks"])
+                + np.asarray(self.params["kd"]) / np.pi)
+
+
+@register
+class Velvet(BRDF):
+    """Velvet: Ashikhmin & Premoze's inverted-Gaussian distribution (2007), a
+    cloth-like BRDF that rises toward grazing angles (the kind Kautz & McCool
+    1999 found best factored in the incident/view parameterization).
+
+    D(h) = (1 + 4 exp(-cot^2 theta_h / sigma^2) / sin^4 theta_h) / (pi (1 + 4 sigma^2)),
+    f = ks D(h) / (4 (cos theta_i + cos theta_o - cos theta_i cos theta_o)) + kd / pi.
+    """
+
+    name = "velvet"
+    PARAMS = (Param("sigma", 0.5, 0.05, 2.0, "width of the inverted Gaussian"),
+              Param("ks", 1.0, 0.0, 10.0, "sheen weight", rgb=True),
+              Param("kd", 0.0, 0.0, 1.0, "diffuse reflectance", rgb=True))
+
+    def _f(self, wi, wo):
+        sigma = self.params["sigma"]
+        h = half_vector(wi, wo)
+        cos_h = np.clip(h[..., 2], 0.0, 1.0)
+        sin2 = np.maximum(1.0 - cos_h * cos_h, 1e-12)
+        cot2 = cos_h * cos_h / sin2
+        d = (1.0 + 4.0 * np.exp(-cot2 / sigma**2) / (sin2 * sin2)) / \
+            (np.pi * (1.0 + 4.0 * sigma**2))
+        ci, co = wi[..., 2], wo[..., 2]
+        denominator = 4.0 * (ci + co - ci * co)
+        return (np.asarray(self.params["ks"]) * (d / denominator)[..., None]
                 + np.asarray(self.params["kd"]) / np.pi)

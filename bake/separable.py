@@ -1,0 +1,598 @@
+"""Separable BRDF approximations (Kautz & McCool 1999): f ~ sum_k g_k(u) h_k(v).
+
+A 4D BRDF is written as a matrix M[u, v] by choosing a *parameterization*
+(a pair of 2D parameters, each sampled on an n x n texture), and M is
+factored into a few pairs of 2D textures:
+
+- ``incident-view``: u = wi, v = wo, each on a hemisphere map;
+- ``elevation-azimuth``: u = (theta_i, theta_o), v = (phi_i, phi_o), on
+  [0, pi/2]^2 and [0, 2 pi)^2 grids (row = first angle, column = second);
+- ``half-difference`` (Rusinkiewicz): u = h = normalize(wi + wo), v = d, wi
+  in the frame that takes h to the pole (rotate by -phi_h about z, then by
+  -theta_h about y), each on a hemisphere map;
+- ``gram-schmidt`` (the paper's eq. 4): u = h, v = wo in the frame
+  z' = h, x' = normalize(x - (x.h) h) (the tangent made orthogonal to h),
+  y' = z' x x'.
+
+Hemisphere maps (section 5.3) take a unit vector (x, y, z >= 0) to texture
+coordinates s = (X + 1) / 2 along columns and t = (1 - Y) / 2 along rows
+(row 0 at +y), where (X, Y) = (x, y) (``xy``: orthographic projection) or
+(x, y) / (1 + z) (``parabolic``). Texels outside the unit disc hold the
+value at the rim direction they project to (so bilinear lookups near the rim
+stay continuous). All frames are the BRDF's local frame (z = normal, x =
+tangent); f is f_r without the cosine, RGB channels factored independently.
+
+Decompositions (section 4):
+
+- truncated SVD: the N leading singular triplets by randomized subspace
+  iteration on row blocks of M (Halko, Martinsson & Tropp 2011), never a
+  full SVD of M; g_k = sqrt(s_k) u_k, h_k = sqrt(s_k) v_k;
+- normalized decomposition (ND): h(v) = ||M[:, v]||_p (column p-norms),
+  g(u) = mean over v of M[u, v] / h(v) (columns with h = 0 skipped); later
+  terms are the ND of the residual M - sum of earlier terms, with each signed
+  residual column turned to agree with the strongest one. Passes over row
+  blocks only: memory linear in the textures, as the paper states.
+
+The matrix is evaluated in row blocks and kept only while it fits
+``MATRIX_BYTES``; larger ones are re-evaluated per pass. In the half-vector
+parameterizations some (u, v) pairs put wi or wo below the horizon: those
+entries are no BRDF value: the SVD is then the weighted rank-N least squares
+over the valid entries (alternating least squares), the ND decomposes the
+matrix with them filled by that fit, so an exactly separable BRDF is
+recovered exactly and the fit spends nothing on pairs no shader looks up.
+
+Each stored factor is normalized to a largest magnitude of 1 with its
+scale in the metadata: f = sum_k scale_g[k] scale_h[k] G_k(u) H_k(v).
+"""
+
+import math
+
+import numpy as np
+
+from .brdf import parse
+from .errors import BakeError
+from .progress import report
+
+__all__ = ["PARAMETERIZATIONS", "MAPS", "METHODS", "Factorization", "factorize",
+           "check_arguments", "matrix_for",
+           "hemisphere_directions", "hemisphere_coords", "stratified_pairs", "error"]
+
+PARAMETERIZATIONS = ("incident-view", "elevation-azimuth", "half-difference", "gram-schmidt")
+MAPS = ("xy", "parabolic")
+METHODS = ("svd", "nd")
+SIZE_RANGE = (4, 256)
+TERMS_RANGE = (1, 16)
+#: A sampled matrix is kept in memory up to this size (bytes, float32 RGB).
+MATRIX_BYTES = 512 << 20
+#: Weighted least squares over the valid entries (half-vector parameterizations):
+#: at most this many rounds, stopping when the reconstruction moves less.
+ALS_ROUNDS = 24
+ALS_TOLERANCE = 1e-7
+#: Rounds of the (rank-N) fit that fills those entries before an ND.
+ND_FILL_ROUNDS = 10
+
+
+# --- hemisphere maps ----------------------------------------------------------------
+def _texel_centres(size):
+    return (np.arange(size) + 0.5) / size * 2.0 - 1.0
+
+
+def hemisphere_directions(size: int, kind: str = "xy") -> np.ndarray:
+    """(size, size, 3) unit vectors at texel centres of a hemisphere map (row 0 at +y).
+
+    Centres beyond half a texel inside the disc's edge (and every texel outside
+    it) take the direction at that radius along their own azimuth: the map is
+    sampled where its texels represent the hemisphere, not at z = 0 where f
+    grows without bound (GGX's 1 / (cos theta_i cos theta_o)), and bilinear
+    lookups near the rim stay continuous."""
+    X = _texel_centres(size)[None, :].repeat(size, 0)
+    Y = -_texel_centres(size)[:, None].repeat(size, 1)
+    r = np.hypot(X, Y)
+    rim = 1.0 - 1.0 / size  # half a texel inside the disc's edge
+    scale = np.where(r > rim, rim / np.maximum(r, 1e-30), 1.0)
+    X, Y, r = X * scale, Y * scale, np.minimum(r, rim)
+    if kind == "xy":
+        z = np.sqrt(np.clip(1.0 - r * r, 0.0, None))
+        v = np.stack([X, Y, z], -1)
+    elif kind == "parabolic":  # (X, Y) = (x, y) / (1 + z)
+        z = (1.0 - r * r) / (1.0 + r * r)
+        v = np.stack([X * (1.0 + z), Y * (1.0 + z), z], -1)
+    else:
+        raise BakeError(f"unknown hemisphere map {kind!r} (use xy or parabolic)")
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def hemisphere_coords(vectors, size: int, kind: str = "xy"):
+    """Continuous (column, row) texel coordinates of unit vectors (..., 3), z >= 0,
+    on a size x size hemisphere map (texel centres at integers)."""
+    v = np.asarray(vectors, dtype=np.float64)
+    if kind == "xy":
+        X, Y = v[..., 0], v[..., 1]
+    else:
+        denominator = 1.0 + np.maximum(v[..., 2], 0.0)
+        X, Y = v[..., 0] / denominator, v[..., 1] / denominator
+    return (X + 1.0) / 2.0 * size - 0.5, (1.0 - Y) / 2.0 * size - 0.5
+
+
+def _bilinear(texture, col, row, wrap_cols=False, wrap_rows=False):
+    """Bilinear lookup of texture (H, W, C) at continuous texel coordinates."""
+    height, width = texture.shape[:2]
+    c0, r0 = np.floor(col).astype(int), np.floor(row).astype(int)
+    fc, fr = (col - c0)[..., None], (row - r0)[..., None]
+
+    def index(i, n, wrap):
+        return np.mod(i, n) if wrap else np.clip(i, 0, n - 1)
+
+    c0w, c1w = index(c0, width, wrap_cols), index(c0 + 1, width, wrap_cols)
+    r0w, r1w = index(r0, height, wrap_rows), index(r0 + 1, height, wrap_rows)
+    top = texture[r0w, c0w] * (1 - fc) + texture[r0w, c1w] * fc
+    bottom = texture[r1w, c0w] * (1 - fc) + texture[r1w, c1w] * fc
+    return top * (1 - fr) + bottom * fr
+
+
+# --- parameterizations ------------------------------------------------------------
+def _rotate_to_pole(v, h):
+    """v (..., 3) in the frame taking h to +z (Rusinkiewicz: -phi_h about z, -theta_h about y)."""
+    phi = np.arctan2(h[..., 1], h[..., 0])
+    theta = np.arccos(np.clip(h[..., 2], -1.0, 1.0))
+    c, s = np.cos(-phi), np.sin(-phi)
+    x = c * v[..., 0] - s * v[..., 1]
+    y = s * v[..., 0] + c * v[..., 1]
+    z = v[..., 2]
+    c, s = np.cos(-theta), np.sin(-theta)
+    return np.stack([c * x + s * z, y, -s * x + c * z], -1)
+
+
+def _rotate_from_pole(d, h):
+    """Inverse of :func:`_rotate_to_pole`."""
+    phi = np.arctan2(h[..., 1], h[..., 0])
+    theta = np.arccos(np.clip(h[..., 2], -1.0, 1.0))
+    c, s = np.cos(theta), np.sin(theta)
+    x = c * d[..., 0] + s * d[..., 2]
+    z = -s * d[..., 0] + c * d[..., 2]
+    y = d[..., 1]
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([c * x - s * y, s * x + c * y, z], -1)
+
+
+def _gram_schmidt_frame(h):
+    """(x', y', z') of the paper's eq. 4 at half vectors h (..., 3)."""
+    tangent = np.zeros_like(h)
+    tangent[..., 0] = 1.0
+    x = tangent - np.sum(tangent * h, -1, keepdims=True) * h
+    norm = np.linalg.norm(x, axis=-1, keepdims=True)
+    fallback = np.zeros_like(h)
+    fallback[..., 1] = 1.0  # h along x (never above the horizon's interior): use y
+    x = np.where(norm > 1e-9, x / np.maximum(norm, 1e-30), fallback)
+    y = np.cross(h, x)
+    return x, y, h
+
+
+def _reflect_about(v, h):
+    return 2.0 * np.sum(v * h, -1, keepdims=True) * h - v
+
+
+class _Grid:
+    """The two sampled parameters of one parameterization at one texture size."""
+
+    def __init__(self, name, size, kind):
+        if name not in PARAMETERIZATIONS:
+            raise BakeError(f"unknown parameterization {name!r} (use one of: "
+                            f"{', '.join(PARAMETERIZATIONS)})")
+        self.name, self.size, self.kind = name, size, kind
+        if name == "elevation-azimuth":
+            theta = (np.arange(size) + 0.5) / size * (np.pi / 2)
+            phi = (np.arange(size) + 0.5) / size * (2 * np.pi)
+            self.u = np.stack(np.meshgrid(theta, theta, indexing="ij"), -1).reshape(-1, 2)
+            self.v = np.stack(np.meshgrid(phi, phi, indexing="ij"), -1).reshape(-1, 2)
+        else:
+            directions = hemisphere_directions(size, kind).reshape(-1, 3)
+            self.u, self.v = directions, directions
+
+    def pairs(self, u, v):
+        """(wi, wo) for every (u row, v column): (len(u), len(v), 3) each."""
+        if self.name == "incident-view":
+            wi = np.broadcast_to(u[:, None, :], (len(u), len(v), 3))
+            wo = np.broadcast_to(v[None, :, :], (len(u), len(v), 3))
+            return wi, wo
+        if self.name == "elevation-azimuth":
+            ti, to = u[:, None, 0], u[:, None, 1]
+            pi, po = v[None, :, 0], v[None, :, 1]
+            wi = np.stack(np.broadcast_arrays(np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi),
+                                              np.cos(ti) + 0 * pi), -1)
+            wo = np.stack(np.broadcast_arrays(np.sin(to) * np.cos(po), np.sin(to) * np.sin(po),
+                                              np.cos(to) + 0 * po), -1)
+            return wi, wo
+        h = np.broadcast_to(u[:, None, :], (len(u), len(v), 3))
+        second = np.broadcast_to(v[None, :, :], (len(u), len(v), 3))
+        if self.name == "half-difference":
+            wi = _rotate_from_pole(second, h)
+            return wi, _reflect_about(wi, h)
+        x, y, z = _gram_schmidt_frame(h)
+        wo = second[..., :1] * x + second[..., 1:2] * y + second[..., 2:] * z
+        return _reflect_about(wo, h), wo
+
+    def coords(self, wi, wo):
+        """Continuous texel coordinates ((col, row) of u, (col, row) of v) of pairs."""
+        n = self.size
+        if self.name == "incident-view":
+            return hemisphere_coords(wi, n, self.kind), hemisphere_coords(wo, n, self.kind)
+        if self.name == "elevation-azimuth":
+            ti = np.arccos(np.clip(wi[..., 2], -1, 1))
+            to = np.arccos(np.clip(wo[..., 2], -1, 1))
+            pi = np.mod(np.arctan2(wi[..., 1], wi[..., 0]), 2 * np.pi)
+            po = np.mod(np.arctan2(wo[..., 1], wo[..., 0]), 2 * np.pi)
+            theta = n / (np.pi / 2)
+            phi = n / (2 * np.pi)
+            return (to * theta - 0.5, ti * theta - 0.5), (po * phi - 0.5, pi * phi - 0.5)
+        h = wi + wo
+        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        if self.name == "half-difference":
+            second = _rotate_to_pole(wi, h)
+        else:
+            x, y, z = _gram_schmidt_frame(h)
+            second = np.stack([np.sum(wo * x, -1), np.sum(wo * y, -1), np.sum(wo * z, -1)], -1)
+        return hemisphere_coords(h, n, self.kind), hemisphere_coords(second, n, self.kind)
+
+
+# --- the matrix, in row blocks ------------------------------------------------------
+class _Matrix:
+    """M[c, u, v] = f(wi, wo)[c] of a parameterization, evaluated in row blocks
+    (channel first, so every product is a batched BLAS matrix product)."""
+
+    def __init__(self, model, grid, block_bytes=64 << 20):
+        self.model, self.grid = model, grid
+        self.rows, self.cols = len(grid.u), len(grid.v)
+        self.block = max(1, int(block_bytes // (self.cols * 3 * 8 * 4)))
+        self._kept = self._valid = None
+        self.evaluations = 0
+        if self.rows * self.cols * 3 * 4 <= MATRIX_BYTES:
+            self._kept = np.concatenate([b for _, b in self._evaluate_blocks()], axis=1)
+            self._valid = np.concatenate([v for _, v in self._evaluate_blocks(False)], axis=0)
+
+    def _evaluate_blocks(self, with_values=True):
+        for start in range(0, self.rows, self.block):
+            stop = min(start + self.block, self.rows)
+            wi, wo = self.grid.pairs(self.grid.u[start:stop], self.grid.v)
+            valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+            if not with_values:
+                yield start, valid
+                continue
+            self.evaluations += wi.shape[0] * wi.shape[1]
+            values = self.model.f(wi, wo).astype(np.float32)
+            yield start, np.ascontiguousarray(np.moveaxis(values, -1, 0))
+
+    def blocks(self):
+        """Yield (first row, (3, rows, cols) float32 block)."""
+        if self._kept is not None:
+            for start in range(0, self.rows, self.block):
+                yield start, self._kept[:, start:start + self.block]
+        else:
+            yield from self._evaluate_blocks()
+
+    def valid_blocks(self):
+        """Yield (first row, (rows, cols) bool): pairs with wi and wo above the horizon
+        (the others are no BRDF value at all: half-vector parameterizations reach
+        below the horizon)."""
+        if self._valid is not None:
+            for start in range(0, self.rows, self.block):
+                yield start, self._valid[start:start + self.block]
+        else:
+            yield from self._evaluate_blocks(with_values=False)
+
+    @property
+    def complete(self) -> bool:
+        """True when every entry is a valid pair (incident-view, elevation-azimuth)."""
+        return self.grid.name in ("incident-view", "elevation-azimuth")
+
+
+class _Filled:
+    """The matrix with its invalid entries filled by a reconstruction g h^T
+    (EM-style imputation: an exactly separable BRDF stays exactly separable)."""
+
+    def __init__(self, matrix, fill):
+        self.matrix, self.fill = matrix, fill
+        self.rows, self.cols = matrix.rows, matrix.cols
+
+    def blocks(self):
+        for (start, block), (_, valid) in zip(self.matrix.blocks(), self.matrix.valid_blocks(),
+                                              strict=True):
+            if self.fill is None or valid.all():
+                yield start, block
+                continue
+            g, h = self.fill
+            guess = g[:, start:start + block.shape[1]] @ h.transpose(0, 2, 1)
+            yield start, np.where(valid[None], block, guess.astype(np.float32))
+
+
+# --- decompositions ------------------------------------------------------------------
+def _residual(block, start, g, h):
+    """block (3, r, cols) minus the earlier terms g (3, rows, K) h (3, cols, K) on its rows."""
+    if not g.shape[2]:
+        return block
+    return block - g[:, start:start + block.shape[1]] @ h.transpose(0, 2, 1)
+
+
+def _nd(matrix, terms, p, progress):
+    """Normalized decomposition, sequentially on the residual; three passes over row
+    blocks per term (column norms and the strongest column; each column's sign
+    against it; the mean normalized column), so memory stays linear in the textures.
+    Signs matter from the second term on (a residual is signed): each column is
+    turned to agree with the strongest one, so a signed rank-1 residual a b^T is
+    recovered exactly."""
+    g = np.zeros((3, matrix.rows, 0))
+    h = np.zeros((3, matrix.cols, 0))
+    channels = np.arange(3)
+    for k in range(terms):
+        norms = np.zeros((3, matrix.cols))
+        for start, block in matrix.blocks():
+            norms += np.sum(np.abs(_residual(block.astype(np.float64), start, g, h)) ** p,
+                            axis=1)
+        column = norms ** (1.0 / p)
+        strongest = np.argmax(column, axis=1)
+        reference = np.zeros((3, matrix.rows))
+        dots = np.zeros((3, matrix.cols))
+        for start, block in matrix.blocks():
+            r = _residual(block.astype(np.float64), start, g, h)
+            reference[:, start:start + r.shape[1]] = r[channels, :, strongest]
+        for start, block in matrix.blocks():
+            r = _residual(block.astype(np.float64), start, g, h)
+            dots += np.einsum("cu,cuv->cv", reference[:, start:start + r.shape[1]], r)
+        sign = np.where(dots < 0, -1.0, 1.0)
+        usable = column > 1e-12 * max(float(column.max()), 1e-300)
+        safe = np.where(usable, column, 1.0) * sign
+        row = np.zeros((3, matrix.rows))
+        for start, block in matrix.blocks():
+            r = _residual(block.astype(np.float64), start, g, h)
+            row[:, start:start + r.shape[1]] = np.sum(
+                np.where(usable[:, None], r / safe[:, None], 0.0), axis=2) / \
+                np.maximum(usable.sum(1), 1)[:, None]
+        g = np.concatenate([g, row[..., None]], axis=2)
+        h = np.concatenate([h, np.where(usable, safe, 0.0)[..., None]], axis=2)
+        report(progress, (k + 1) / terms, f"ND term {k + 1}/{terms}")
+    return g, h
+
+
+def _svd(matrix, terms, progress, iterations=4, oversample=8, seed=0):
+    """Randomized subspace iteration per channel: (g, h) of the leading terms,
+    (3, rows, K) and (3, cols, K)."""
+    rng = np.random.default_rng(seed)
+    width = min(terms + oversample, matrix.rows, matrix.cols)
+    g = np.zeros((3, matrix.rows, terms))
+    h = np.zeros((3, matrix.cols, terms))
+
+    def times(right):  # M right: (3, rows, width)
+        out = np.zeros((3, matrix.rows, right.shape[2]))
+        for start, block in matrix.blocks():
+            out[:, start:start + block.shape[1]] = block @ right
+        return out
+
+    def transposed_times(left):  # M^T left: (3, cols, width)
+        out = np.zeros((3, matrix.cols, left.shape[2]))
+        for start, block in matrix.blocks():
+            out += block.transpose(0, 2, 1) @ left[:, start:start + block.shape[1]]
+        return out
+
+    def orthonormal(a):
+        return np.stack([np.linalg.qr(a[c])[0] for c in range(3)])
+
+    q = orthonormal(times(rng.standard_normal((3, matrix.cols, width))))
+    for step in range(iterations):
+        q = orthonormal(times(orthonormal(transposed_times(q))))
+        report(progress, (step + 1) / (iterations + 1), f"SVD subspace iteration {step + 1}")
+    b = transposed_times(q)  # (3, cols, width) = (Q^T M)^T
+    for c in range(3):
+        small_u, sigma, vt = np.linalg.svd(b[c].T, full_matrices=False)
+        if not np.all(np.isfinite(sigma)):
+            raise BakeError("the SVD did not converge (non-finite values in the BRDF?)")
+        u = q[c] @ small_u
+        for k in range(min(terms, len(sigma))):
+            root = math.sqrt(max(float(sigma[k]), 0.0))
+            sign = -1.0 if u[:, k].sum() < 0 else 1.0
+            g[c, :, k] = sign * root * u[:, k]
+            h[c, :, k] = sign * root * vt[k]
+    report(progress, 1.0, f"SVD: {terms} term(s)")
+    return g, h
+
+
+# --- the result --------------------------------------------------------------------
+class Factorization:
+    """Factor textures and how to look them up.
+
+    ``g``, ``h``: (K, n, n, 3) float32, each normalized to a largest magnitude of
+    1; ``scale_g``, ``scale_h``: (K, 3) scales; f ~ sum_k scale_g scale_h g_k h_k.
+    """
+
+    def __init__(self, spec, parameterization, method, size, kind, g, h, p=2.0):
+        self.spec, self.parameterization, self.method = spec, parameterization, method
+        self.size, self.kind, self.p = size, kind, p
+        n = size
+        g = np.transpose(np.asarray(g), (2, 1, 0)).reshape(-1, n, n, 3)
+        h = np.transpose(np.asarray(h), (2, 1, 0)).reshape(-1, n, n, 3)
+        self.scale_g = np.maximum(np.abs(g).max(axis=(1, 2)), 1e-30)
+        self.scale_h = np.maximum(np.abs(h).max(axis=(1, 2)), 1e-30)
+        self.g = (g / self.scale_g[:, None, None]).astype(np.float32)
+        self.h = (h / self.scale_h[:, None, None]).astype(np.float32)
+        self.grid = _Grid(parameterization, size, kind)
+
+    @property
+    def terms(self):
+        return len(self.g)
+
+    def evaluate(self, wi, wo, terms=None):
+        """Reconstructed f (..., 3) at pairs, by bilinear lookups (first ``terms``)."""
+        wi = np.asarray(wi, dtype=np.float64)
+        wo = np.asarray(wo, dtype=np.float64)
+        (uc, ur), (vc, vr) = self.grid.coords(wi, wo)
+        wrap = self.parameterization == "elevation-azimuth"
+        total = np.zeros(np.broadcast_shapes(wi.shape, wo.shape))
+        for k in range(terms or self.terms):
+            a = _bilinear(self.g[k], uc, ur)
+            b = _bilinear(self.h[k], vc, vr, wrap_cols=wrap, wrap_rows=wrap)
+            total += a * b * (self.scale_g[k] * self.scale_h[k])
+        above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+        return np.where(above[..., None], total, 0.0)
+
+    def meta(self) -> dict:
+        return {"generator": "glossy-bake separable", "kind": "separable", "spec": self.spec,
+                "parameterization": self.parameterization, "method": self.method,
+                "terms": self.terms, "size": self.size, "map": self.kind, "p": self.p,
+                "scale_g": self.scale_g.tolist(), "scale_h": self.scale_h.tolist(),
+                "convention": __doc__.split("\n\n")[2].replace("\n", " ")}
+
+    def layers(self) -> dict:
+        out = {}
+        for k in range(self.terms):
+            out[f"g{k}"] = self.g[k]
+            out[f"h{k}"] = self.h[k]
+        return out
+
+
+def check_arguments(size, terms, parameterization, kind, method, p):
+    """Raise BakeError for an argument outside what factorize takes (before any work)."""
+    low, high = SIZE_RANGE
+    if not isinstance(size, (int, np.integer)) or not low <= size <= high:
+        raise BakeError(f"texture size must be a whole number in [{low}, {high}], not {size!r}")
+    low, high = TERMS_RANGE
+    if not isinstance(terms, (int, np.integer)) or not low <= terms <= high:
+        raise BakeError(f"terms must be a whole number in [{low}, {high}], not {terms!r}")
+    if parameterization not in PARAMETERIZATIONS:
+        raise BakeError(f"unknown parameterization {parameterization!r} (use one of: "
+                        f"{', '.join(PARAMETERIZATIONS)})")
+    if kind not in MAPS:
+        raise BakeError(f"unknown hemisphere map {kind!r} (use xy or parabolic)")
+    if method not in METHODS:
+        raise BakeError(f"unknown method {method!r} (use svd or nd)")
+    if not 0.5 <= p <= 16:
+        raise BakeError(f"the ND's p-norm must be in [0.5, 16], not {p}")
+
+
+def factorize(brdf, parameterization="half-difference", method="svd", terms=1, size=32,
+              kind="xy", p=2.0, progress=None, matrix=None) -> Factorization:
+    """Factor a BRDF (spec or model) into ``terms`` pairs of size x size textures.
+
+    Arguments are checked before any evaluation (BakeError). ``matrix``: a
+    sampled matrix to reuse (the report factors one matrix several ways).
+    """
+    check_arguments(size, terms, parameterization, kind, method, p)
+    model = parse(brdf)
+    if matrix is None:
+        matrix = _Matrix(model, _Grid(parameterization, size, kind))
+    g, h = _decompose(matrix, method, terms, p, progress)
+    return Factorization(model.spec, parameterization, method, size, kind, g, h, p)
+
+
+def _product_norm(g, h):
+    """||g h^T||_F over channels from K x K Gram matrices (no rows x cols product)."""
+    return math.sqrt(max(float(np.sum((g.transpose(0, 2, 1) @ g) * (h.transpose(0, 2, 1) @ h))),
+                         0.0))
+
+
+def _als(matrix, g, h, rounds, tolerance, progress):
+    """Weighted rank-K least squares over the valid entries only (alternating least
+    squares from (g, h)): the truncated SVD of a matrix with missing entries."""
+    terms = g.shape[2]
+    eye = np.eye(terms)
+    for round_ in range(rounds):
+        previous = (g.copy(), h.copy())
+        for side in ("g", "h"):
+            other = h if side == "g" else g
+            outer = (other[..., :, None] * other[..., None, :]).reshape(3, -1, terms * terms)
+            count = matrix.cols if side == "g" else matrix.rows
+            if side == "h":
+                normal = np.zeros((3, matrix.cols, terms * terms))
+                right = np.zeros((3, matrix.cols, terms))
+            for (start, block), (_, valid) in zip(matrix.blocks(), matrix.valid_blocks(),
+                                                  strict=True):
+                weight = valid.astype(np.float64)
+                observed = np.where(valid[None], block, 0.0)
+                if side == "g":
+                    rows = slice(start, start + block.shape[1])
+                    a = (weight[None] @ outer).reshape(3, -1, terms, terms)
+                    rhs = observed @ h
+                    ridge = 1e-12 * np.trace(a, axis1=2, axis2=3)[..., None, None] + 1e-300
+                    g[:, rows] = np.linalg.solve(a + ridge * eye, rhs[..., None])[..., 0]
+                else:
+                    rows = slice(start, start + block.shape[1])
+                    normal += weight.T[None] @ (g[:, rows, :, None] * g[:, rows, None, :]
+                                                ).reshape(3, -1, terms * terms)
+                    right += observed.transpose(0, 2, 1) @ g[:, rows]
+            if side == "h":
+                a = normal.reshape(3, count, terms, terms)
+                ridge = 1e-12 * np.trace(a, axis1=2, axis2=3)[..., None, None] + 1e-300
+                h = np.linalg.solve(a + ridge * eye, right[..., None])[..., 0]
+        both_g = np.concatenate([g, previous[0]], axis=2)
+        both_h = np.concatenate([h, -previous[1]], axis=2)
+        change = _product_norm(both_g, both_h) / max(_product_norm(g, h), 1e-300)
+        report(progress, (round_ + 1) / rounds, f"weighted least squares round {round_ + 1}")
+        if change < tolerance:
+            break
+    return _as_svd(g, h)
+
+
+def _as_svd(g, h):
+    """The same product g h^T as SVD-ordered terms g_k = sqrt(s_k) u_k, h_k = sqrt(s_k) v_k."""
+    out_g, out_h = np.zeros_like(g), np.zeros_like(h)
+    for c in range(3):
+        qg, rg = np.linalg.qr(g[c])
+        qh, rh = np.linalg.qr(h[c])
+        u, sigma, vt = np.linalg.svd(rg @ rh.T)
+        root = np.sqrt(np.maximum(sigma, 0.0))
+        left, right = qg @ u * root, qh @ vt.T * root
+        signs = np.where(left.sum(axis=0) < 0, -1.0, 1.0)
+        out_g[c], out_h[c] = left * signs, right * signs
+    return out_g, out_h
+
+
+def _decompose(matrix, method, terms, p, progress):
+    """(g, h) of the matrix. Where some entries are no valid pair (below the
+    horizon, half-vector parameterizations), the SVD becomes the weighted rank-K
+    least squares over the valid entries (alternating least squares from the SVD
+    of the zero-filled matrix), and the ND decomposes the matrix with those
+    entries filled by that reconstruction."""
+    if matrix.complete:
+        if method == "svd":
+            return _svd(matrix, terms, progress)
+        return _nd(matrix, terms, p, progress)
+    g, h = _svd(matrix, terms, None)
+    rounds = ALS_ROUNDS if method == "svd" else ND_FILL_ROUNDS
+    g, h = _als(matrix, g, h, rounds, ALS_TOLERANCE, None if method == "nd" else progress)
+    if method == "svd":
+        return g, h
+    return _nd(_Filled(matrix, (g, h)), terms, p, progress)
+
+
+# --- error analysis (section 5.2) ---------------------------------------------------
+def stratified_pairs(per_hemisphere=90, seed=1):
+    """(wi, wo) (N^2, 3) each: N jittered strata of (cos theta, phi) on each
+    hemisphere (cos theta uniform: equal solid angle), every wi with every wo."""
+    rng = np.random.default_rng(seed)
+    rows = int(math.sqrt(per_hemisphere))
+    cols = per_hemisphere // rows
+    count = rows * cols
+
+    def strata():
+        i, j = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+        mu = (i.ravel() + rng.random(count)) / rows
+        phi = (j.ravel() + rng.random(count)) / cols * 2 * np.pi
+        s = np.sqrt(1 - mu * mu)
+        return np.stack([s * np.cos(phi), s * np.sin(phi), np.maximum(mu, 1e-6)], -1)
+
+    wi, wo = strata(), strata()
+    return (np.repeat(wi, count, axis=0), np.tile(wo, (count, 1)))
+
+
+def error(factorization, model, pairs=None, terms=None) -> float:
+    """Relative cosine-weighted RMS error of outgoing radiance: sqrt(sum over pairs
+    of |(f_rec - f) cos theta_i|^2 / sum |f cos theta_i|^2), RGB summed."""
+    model = parse(model)
+    wi, wo = pairs if pairs is not None else stratified_pairs()
+    truth = model.f(wi, wo) * wi[:, 2:3]
+    approx = factorization.evaluate(wi, wo, terms) * wi[:, 2:3]
+    return float(np.sqrt(np.sum((approx - truth) ** 2) / max(np.sum(truth ** 2), 1e-300)))
+
+
+def matrix_for(brdf, parameterization, size, kind="xy"):
+    """The sampled matrix of a parameterization (to factor it several ways)."""
+    check_arguments(size, 1, parameterization, kind, "svd", 2.0)
+    return _Matrix(parse(brdf), _Grid(parameterization, size, kind))

@@ -1,0 +1,210 @@
+"""Separable BRDF approximations (bake.separable, Kautz & McCool 1999), against
+closed forms: BRDFs separable by construction, the exact truncated SVD of
+NumPy on a small matrix, and the paper's findings on which parameterization
+suits which BRDF."""
+
+import numpy as np
+import pytest
+
+from bake import brdf, separable
+from bake.brdf.base import BRDF
+from bake.errors import BakeError
+
+
+class _IncidentTimesView(BRDF):
+    """a(wi) b(wo): exactly separable in the incident/view parameterization."""
+
+    name = "test-incident-view"
+
+    def _f(self, wi, wo):
+        a = (1.5 + wi[..., 0]) * (1.0 + wi[..., 2] ** 2)
+        b = (2.0 + wo[..., 1]) * (0.5 + wo[..., 2])
+        return (a * b)[..., None] * np.array([1.0, 0.5, 0.25])
+
+
+class _HalfTimesDifference(BRDF):
+    """a(h) b(d): exactly separable in the half/difference parameterization."""
+
+    name = "test-half-difference"
+
+    def _f(self, wi, wo):
+        h = wi + wo
+        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        d = separable._rotate_to_pole(wi, h)
+        a = 0.2 + h[..., 2] ** 4 + 0.3 * h[..., 0]
+        b = 1.0 + 0.5 * d[..., 0] ** 2 + 0.25 * d[..., 2]
+        return (a * b)[..., None] * np.array([0.9, 0.6, 0.3])
+
+
+def _inside_texel_pairs(fac, step_u=5, step_v=3):
+    """Pairs at texel centres that are not on the clamped rim (exactly representable)."""
+    grid = fac.grid
+    n = fac.size
+    radius = np.hypot(*np.meshgrid(separable._texel_centres(n), separable._texel_centres(n),
+                                   indexing="ij")).ravel()
+    inside = np.flatnonzero(radius < 1.0 - 1.0 / n)
+    u, v = grid.u[inside[::step_u]], grid.v[inside[::step_v]]
+    wi, wo = grid.pairs(u, v)
+    keep = (wi[..., 2] > 1e-3) & (wo[..., 2] > 1e-3)
+    return wi[keep], wo[keep]
+
+
+@pytest.mark.parametrize("model, parameterization", [
+    (_IncidentTimesView(), "incident-view"), (_HalfTimesDifference(), "half-difference")])
+@pytest.mark.parametrize("method", ["svd", "nd"])
+@pytest.mark.parametrize("kind", ["xy", "parabolic"])
+def test_an_exactly_separable_brdf_is_recovered_by_one_term(model, parameterization, method,
+                                                            kind):
+    fac = separable.factorize(model, parameterization, method, 1, 16, kind)
+    wi, wo = _inside_texel_pairs(fac)
+    truth, approx = model.f(wi, wo), fac.evaluate(wi, wo)
+    assert np.abs(approx - truth).max() <= 1e-6 * np.abs(truth).max()
+
+
+def test_the_randomized_svd_matches_numpy_s_truncated_svd():
+    """Eckart-Young: the k-term error of the matrix equals the tail of its singular
+    values; the randomized solver reaches it (to 1e-4) without a full SVD."""
+    model = brdf.parse("ggx:roughness=0.5")
+    matrix = separable.matrix_for(model, "incident-view", 8)
+    full = matrix._kept[1].astype(np.float64)  # green channel, 64 x 64
+    sigma = np.linalg.svd(full, compute_uv=False)
+    for terms in (1, 3, 5):
+        fac = separable.factorize(model, "incident-view", "svd", terms, 8, matrix=matrix)
+        g = fac.g[..., 1].reshape(terms, -1) * fac.scale_g[:, 1:2]
+        h = fac.h[..., 1].reshape(terms, -1) * fac.scale_h[:, 1:2]
+        error = np.linalg.norm(full - g.T @ h)
+        best = np.sqrt(np.sum(sigma[terms:] ** 2))
+        assert error == pytest.approx(best, rel=1e-4, abs=1e-6 * sigma[0])
+
+
+@pytest.mark.parametrize("parameterization", ["incident-view", "elevation-azimuth"])
+def test_svd_error_does_not_grow_with_terms(parameterization):
+    """Measured as the paper does (cosine-weighted outgoing radiance, continuous
+    lookups) for GGX 0.5 at 32^2. The 1e-3 allowance covers the bilinear lookup
+    between texel centres, where the SVD's optimality does not hold."""
+    model = brdf.parse("ggx:roughness=0.5")
+    fac = separable.factorize(model, parameterization, "svd", 5, 32)
+    pairs = separable.stratified_pairs(60)
+    errors = [separable.error(fac, model, pairs, k) for k in range(1, 6)]
+    assert all(b <= a + 1e-3 for a, b in zip(errors, errors[1:], strict=False)), errors
+    assert errors[-1] < errors[0]
+
+
+def test_the_weighted_fit_ignores_pairs_below_the_horizon():
+    """In the half-vector parameterizations, (h, d) pairs that put wi or wo below
+    the horizon are no BRDF value. Fitting only the others recovers a BRDF
+    separable in (h, d) exactly; a plain SVD of the zero-filled matrix does not."""
+    model = _HalfTimesDifference()
+    matrix = separable.matrix_for(model, "half-difference", 16)
+    weighted = separable.factorize(model, "half-difference", "svd", 1, 16, matrix=matrix)
+    g, h = separable._svd(matrix, 1, None)  # the zero-filled matrix, unweighted
+    plain = separable.Factorization(model.spec, "half-difference", "svd", 16, "xy", g, h)
+    wi, wo = _inside_texel_pairs(weighted)
+    truth = model.f(wi, wo)
+    assert np.abs(weighted.evaluate(wi, wo) - truth).max() <= 1e-6 * np.abs(truth).max()
+    assert np.abs(plain.evaluate(wi, wo) - truth).max() > 0.1 * np.abs(truth).max()
+
+
+def test_nd_streams_in_memory_linear_in_its_output(monkeypatch):
+    """A matrix too large to keep is evaluated again per pass, block by block, and
+    gives the same factors as the kept matrix."""
+    model = brdf.parse("ward:ax=0.2,ay=0.1,ks=0.5")
+    kept = separable.factorize(model, "gram-schmidt", "nd", 2, 16)
+    monkeypatch.setattr(separable, "MATRIX_BYTES", 0)
+    matrix = separable.matrix_for(model, "gram-schmidt", 16)
+    assert matrix._kept is None
+    streamed = separable.factorize(model, "gram-schmidt", "nd", 2, 16, matrix=matrix)
+    assert matrix.evaluations % (16 * 16) ** 2 == 0 and matrix.evaluations > (16 * 16) ** 2
+    np.testing.assert_allclose(streamed.g, kept.g, atol=1e-6)
+    np.testing.assert_allclose(streamed.h, kept.h, atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["xy", "parabolic"])
+def test_hemisphere_maps_round_trip_at_texel_centres(kind):
+    size = 16
+    directions = separable.hemisphere_directions(size, kind)
+    col, row = separable.hemisphere_coords(directions, size, kind)
+    radius = np.hypot(*np.meshgrid(separable._texel_centres(size),
+                                   separable._texel_centres(size), indexing="ij"))
+    inside = radius < 1.0 - 1.0 / size
+    rows, cols = np.indices((size, size))
+    np.testing.assert_allclose(col[inside], cols[inside], atol=1e-9)
+    np.testing.assert_allclose(row[inside], rows[inside], atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=-1), 1.0, atol=1e-12)
+    assert directions[0, size // 2, 1] > 0.9  # row 0 is +y
+
+
+def test_the_paper_s_findings_on_parameterizations():
+    """Kautz & McCool 1999: half-vector parameterizations suit near-specular BRDFs
+    (the anisotropic Ward of their Figure 10); a velvet-like BRDF, which follows
+    the incident and view elevations, is best in a parameterization without the
+    half vector (here elevation/azimuth; the paper found incident/view)."""
+    pairs = separable.stratified_pairs(60)
+
+    def errors(spec):
+        out = {}
+        for param in separable.PARAMETERIZATIONS:
+            matrix = separable.matrix_for(spec, param, 32)
+            out[param] = min(separable.error(separable.factorize(spec, param, method, 1, 32,
+                                                                 matrix=matrix), spec, pairs)
+                             for method in separable.METHODS)
+        return out
+
+    ward = errors("ward:ax=0.21,ay=0.048,ks=0.3,kd=1/0/0")
+    assert min(ward["half-difference"], ward["gram-schmidt"]) < \
+        0.6 * min(ward["incident-view"], ward["elevation-azimuth"]), ward
+    velvet = errors("velvet:sigma=0.4,ks=0.8")
+    assert min(velvet["incident-view"], velvet["elevation-azimuth"]) < \
+        0.9 * min(velvet["half-difference"], velvet["gram-schmidt"]), velvet
+
+
+@pytest.mark.parametrize("arguments, says", [
+    ({"size": 2}, "texture size"), ({"size": 512}, "texture size"), ({"terms": 0}, "terms"),
+    ({"terms": 17}, "terms"), ({"parameterization": "polar"}, "parameterization"),
+    ({"kind": "sphere"}, "hemisphere map"), ({"method": "pca"}, "method"), ({"p": 0.0}, "p-norm")])
+def test_absurd_arguments_are_refused_before_any_work(arguments, says):
+    class Exploding(BRDF):
+        name = "exploding"
+
+        def _f(self, wi, wo):
+            raise AssertionError("evaluated")
+
+    with pytest.raises(BakeError, match=says):
+        separable.factorize(Exploding(), **arguments)
+
+
+def test_the_command_line_writes_factors_and_the_report(tmp_path):
+    from bake import exr
+    from tests.bake.test_cli import run_bake
+
+    out = tmp_path / "f.exr"
+    result = run_bake("factorize", "--brdf", "ward:ax=0.2,ay=0.1,ks=0.5,kd=0.2", "--size", "16",
+                      "--terms", "2", "--param", "gram-schmidt", "--method", "nd", "-q",
+                      "-o", out)
+    assert result.returncode == 0, result.stderr
+    layers, meta = exr.read(out, layers=True)
+    assert sorted(layers) == ["g0", "g1", "h0", "h1"]
+    assert meta["parameterization"] == "gram-schmidt" and meta["terms"] == 2
+    # Round trip: the textures and scales in the file rebuild the same factorization.
+    again = separable.factorize("ward:ax=0.2,ay=0.1,ks=0.5,kd=0.2", "gram-schmidt", "nd", 2, 16)
+    np.testing.assert_allclose(layers["g1"], again.g[1], atol=1e-6)
+    np.testing.assert_allclose(meta["scale_h"], again.scale_h, rtol=1e-6)
+
+    result = run_bake("factorize", "--brdf", "ggx:roughness=0.5", "--report", "--sizes", "8,16",
+                      "--terms", "2", "--strata", "20", "--plots", tmp_path / "fig", "-q")
+    assert result.returncode == 0, result.stderr
+    table = [line for line in result.stdout.splitlines() if line.split()[:1] and
+             line.split()[0] in separable.PARAMETERIZATIONS]
+    assert len(table) == 4 * 2 * 2  # parameterizations x methods x sizes
+    assert "best at 16^2" in result.stdout
+    assert (tmp_path / "fig_terms.png").stat().st_size > 1000
+    assert (tmp_path / "fig_sizes.png").stat().st_size > 1000
+
+    for args, says in ((["--size", "1024"], "texture size"), (["--terms", "0"], "terms"),
+                       (["--report", "--strata", "1"], "--strata"), ([], "-o OUT.exr")):
+        result = run_bake("factorize", "--brdf", "ggx:roughness=0.5", *args,
+                          *(["-o", tmp_path / "x.exr"] if args[:1] == ["--size"] or
+                            args[:1] == ["--terms"] else []), "-q")
+        assert result.returncode == 2 and says in result.stderr, result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.exr").exists()
