@@ -116,7 +116,7 @@ def test_brdf_command_describes_and_plots(tmp_path):
 
 @pytest.mark.parametrize(("spec", "message"), [
     ("ggx:roughness=3", "roughness=3 is out of range [0.01, 1]"),
-    ("velvet", "unknown BRDF 'velvet'"),
+    ("corduroy", "unknown BRDF 'corduroy'"),
     ("ward:alpha=0.1,shine=2", "unknown key 'shine'"),
 ])
 def test_brdf_command_bad_spec_is_one_line(tmp_path, spec, message):
