@@ -361,16 +361,19 @@ def _svd(matrix, terms, progress, iterations=4, oversample=8, seed=0):
     g = np.zeros((3, matrix.rows, terms))
     h = np.zeros((3, matrix.cols, terms))
 
-    def times(right):  # M right: (3, rows, width)
+    def times(right):  # M right: (3, rows, width); float32 products (sgemm), float64 sums
+        right32 = right.astype(np.float32)
         out = np.zeros((3, matrix.rows, right.shape[2]))
         for start, block in matrix.blocks():
-            out[:, start:start + block.shape[1]] = block @ right
+            out[:, start:start + block.shape[1]] = block @ right32
         return out
 
-    def transposed_times(left):  # M^T left: (3, cols, width)
+    def transposed_times(left, dtype=np.float32):  # M^T left: (3, cols, width)
+        left_cast = left.astype(dtype)
         out = np.zeros((3, matrix.cols, left.shape[2]))
         for start, block in matrix.blocks():
-            out += block.transpose(0, 2, 1) @ left[:, start:start + block.shape[1]]
+            out += block.astype(dtype, copy=False).transpose(0, 2, 1) @ \
+                left_cast[:, start:start + block.shape[1]]
         return out
 
     def orthonormal(a):
@@ -380,7 +383,7 @@ def _svd(matrix, terms, progress, iterations=4, oversample=8, seed=0):
     for step in range(iterations):
         q = orthonormal(times(orthonormal(transposed_times(q))))
         report(progress, (step + 1) / (iterations + 1), f"SVD subspace iteration {step + 1}")
-    b = transposed_times(q)  # (3, cols, width) = (Q^T M)^T
+    b = transposed_times(q, np.float64)  # (3, cols, width) = (Q^T M)^T, in full precision
     for c in range(3):
         small_u, sigma, vt = np.linalg.svd(b[c].T, full_matrices=False)
         if not np.all(np.isfinite(sigma)):
@@ -510,30 +513,36 @@ def _als(matrix, g, h, rounds, tolerance, progress):
     squares from (g, h)): the truncated SVD of a matrix with missing entries."""
     terms = g.shape[2]
     eye = np.eye(terms)
-    for round_ in range(rounds):
+    for round_ in range(rounds + 1):
+        # float32 products (sgemm) while converging, one last round in float64
+        final = round_ == rounds
+        dtype = np.float64 if final else np.float32
         previous = (g.copy(), h.copy())
         for side in ("g", "h"):
             other = h if side == "g" else g
-            outer = (other[..., :, None] * other[..., None, :]).reshape(3, -1, terms * terms)
+            outer = (other[..., :, None] * other[..., None, :]).reshape(
+                3, -1, terms * terms).astype(dtype)
+            h_cast = h.astype(dtype)
             count = matrix.cols if side == "g" else matrix.rows
             if side == "h":
                 normal = np.zeros((3, matrix.cols, terms * terms))
                 right = np.zeros((3, matrix.cols, terms))
             for (start, block), (_, valid) in zip(matrix.blocks(), matrix.valid_blocks(),
                                                   strict=True):
-                weight = valid.astype(np.float64)
-                observed = np.where(valid[None], block, 0.0)
+                weight = valid.astype(dtype)
+                observed = block.astype(dtype, copy=False)  # f is 0 where a pair is not valid
                 if side == "g":
                     rows = slice(start, start + block.shape[1])
-                    a = (weight[None] @ outer).reshape(3, -1, terms, terms)
-                    rhs = observed @ h
+                    a = (weight[None] @ outer).reshape(3, -1, terms, terms).astype(np.float64)
+                    rhs = (observed @ h_cast).astype(np.float64)
                     ridge = _ridge(a)
                     g[:, rows] = np.linalg.solve(a + ridge * eye, rhs[..., None])[..., 0]
                 else:
                     rows = slice(start, start + block.shape[1])
-                    normal += weight.T[None] @ (g[:, rows, :, None] * g[:, rows, None, :]
+                    g_cast = g[:, rows].astype(dtype)
+                    normal += weight.T[None] @ (g_cast[..., :, None] * g_cast[..., None, :]
                                                 ).reshape(3, -1, terms * terms)
-                    right += observed.transpose(0, 2, 1) @ g[:, rows]
+                    right += observed.transpose(0, 2, 1) @ g_cast
             if side == "h":
                 a = normal.reshape(3, count, terms, terms)
                 ridge = _ridge(a)
@@ -541,9 +550,12 @@ def _als(matrix, g, h, rounds, tolerance, progress):
         both_g = np.concatenate([g, previous[0]], axis=2)
         both_h = np.concatenate([h, -previous[1]], axis=2)
         change = _product_norm(both_g, both_h) / max(_product_norm(g, h), 1e-300)
-        report(progress, (round_ + 1) / rounds, f"weighted least squares round {round_ + 1}")
-        if change < tolerance:
+        report(progress, min(1.0, (round_ + 1) / rounds),
+               f"weighted least squares round {round_ + 1}")
+        if final:
             break
+        if change < tolerance:
+            rounds = round_ + 1  # converged in float32: the float64 round is next
     return _as_svd(g, h)
 
 
