@@ -21,12 +21,25 @@ def _reason(layout, text, icon="INFO"):
         column.label(text=part, icon=icon if index == 0 else "BLANK1")
 
 
-class GLOSSY_PT_environment(bpy.types.Panel):
-    bl_label = "Environment"
-    bl_idname = "GLOSSY_PT_environment"
+def _props(layout, settings, names):
+    """An aligned column of ``settings``' properties; returns the column."""
+    column = layout.column(align=True)
+    for name in names:
+        column.prop(settings, name)
+    return column
+
+
+class _Sidebar:
+    """The Glossy tab of the 3D viewport's sidebar."""
+
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Glossy"
+
+
+class GLOSSY_PT_environment(_Sidebar, bpy.types.Panel):
+    bl_label = "Environment"
+    bl_idname = "GLOSSY_PT_environment"
 
     def draw(self, context):
         layout = self.layout
@@ -36,21 +49,15 @@ class GLOSSY_PT_environment(bpy.types.Panel):
             layout.label(text="World has no Environment Texture image", icon="INFO")
         else:
             layout.label(text=f"{image.name} ({image.size[0]}x{image.size[1]})", icon="WORLD")
-        column = layout.column(align=True)
-        column.prop(settings, "export_layout")
-        column.prop(settings, "export_size")
-        column.prop(settings, "export_mip")
+        _props(layout, settings, ("export_layout", "export_size", "export_mip"))
         layout.operator("glossy.export_environment", icon="EXPORT")
         if settings.last_export:
             layout.label(text=bpy.path.basename(settings.last_export), icon="FILE_IMAGE")
 
 
-class GLOSSY_PT_probe(bpy.types.Panel):
+class GLOSSY_PT_probe(_Sidebar, bpy.types.Panel):
     bl_label = "Probe"
     bl_idname = "GLOSSY_PT_probe"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Glossy"
 
     @classmethod
     def poll(cls, context):
@@ -59,19 +66,14 @@ class GLOSSY_PT_probe(bpy.types.Panel):
     def draw(self, context):
         settings = context.object.glossy
         layout = self.layout
-        column = layout.column(align=True)
-        column.prop(settings, "probe_source")
-        column.prop(settings, "centre_mode")
-        column.prop(settings, "probe_size_mode")
+        column = _props(layout, settings, ("probe_source", "centre_mode", "probe_size_mode"))
         column.prop(settings, "probe_resolution",
                     text="Max Probe Resolution" if settings.probe_size_mode == "AUTO"
                     else "Probe Resolution")
         if settings.probe_source == "RENDER":
-            column.prop(settings, "capture_engine")
-            column.prop(settings, "capture_samples")
-            column.prop(settings, "clip_start")
-            column.prop(settings, "clip_end")
-            column.prop(settings, "hide_self")
+            for name in ("capture_engine", "capture_samples", "clip_start", "clip_end",
+                         "hide_self"):
+                column.prop(settings, name)
         row = layout.row(align=True)
         row.operator("glossy.capture_probes", icon="RENDER_STILL")
         row.operator("glossy.clear", icon="TRASH")
@@ -113,9 +115,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
             column.prop(settings, "color")
         layout.prop(settings, "diffuse")
         layout.prop(settings, "fresnel_ior")
-        column = layout.column(align=True)
-        column.prop(settings, "method")
-        column.prop(settings, "slices")
+        column = _props(layout, settings, ("method", "slices"))
         if settings.method == "3d":
             column.prop(settings, "lobes")
         column.prop(settings, "size_mode")
@@ -151,20 +151,15 @@ class GLOSSY_PT_material(bpy.types.Panel):
                 box.label(text=f"EEVEE native: {100 * settings.validation_native_error:.1f}% RMS")
 
 
-class GLOSSY_PT_validate(bpy.types.Panel):
+class GLOSSY_PT_validate(_Sidebar, bpy.types.Panel):
     bl_label = "Validate"
     bl_idname = "GLOSSY_PT_validate"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Glossy"
 
     def draw(self, context):
         settings = context.scene.glossy
         layout = self.layout
-        column = layout.column(align=True)
-        column.prop(settings, "validate_resolution")
-        column.prop(settings, "validate_samples")
-        column.prop(settings, "validate_eevee_samples")
+        _props(layout, settings, ("validate_resolution", "validate_samples",
+                                  "validate_eevee_samples"))
         layout.operator("glossy.validate", icon="CHECKMARK")
         if settings.last_report:
             layout.label(text=settings.last_report, icon="FILE_TEXT")

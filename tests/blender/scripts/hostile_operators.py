@@ -89,6 +89,16 @@ def shiny(name, **settings):
     return material
 
 
+def captured(object_name, material_name, **settings):
+    """(material, object): a new ball with a new Glossy material, selected alone,
+    its World probe captured."""
+    material = shiny(material_name, **settings)
+    obj = ball(object_name, 0.0, material)
+    select_only(obj)
+    call(bpy.ops.glossy.capture_probes)
+    return material, obj
+
+
 def case(function):
     try:
         report[function.__name__] = function()
@@ -193,10 +203,7 @@ def shared_material():
 @case
 def read_only_clear():
     """Clear when //glossy/ cannot be written: nothing changes, one error."""
-    material = shiny("Locked")
-    obj = ball("Locked", 0.0, material)
-    select_only(obj)
-    call(bpy.ops.glossy.capture_probes)
+    material, obj = captured("Locked", "Locked")
     call(bpy.ops.glossy.bake_materials)
     call(bpy.ops.glossy.attach_materials)
     state = (obj.glossy.probe_path, bpy.data.materials["Locked"].glossy.bake_path)
@@ -220,10 +227,7 @@ def read_only_clear():
 
 @case
 def user_file_at_diffuse_path():
-    material = shiny("DifMat", diffuse=(0.2, 0.2, 0.2))
-    obj = ball("Dif", 0.0, material)
-    select_only(obj)
-    call(bpy.ops.glossy.capture_probes)
+    material, obj = captured("Dif", "DifMat", diffuse=(0.2, 0.2, 0.2))
     user = folder / "Dif_DifMat_diffuse.exr"
     user.write_bytes(b"the user's own file")
     out = {"bake": call(bpy.ops.glossy.bake_materials),
@@ -237,10 +241,7 @@ def user_file_at_diffuse_path():
 
 @case
 def truncated_bake():
-    material = shiny("CutMat")
-    obj = ball("Cut", 0.0, material)
-    select_only(obj)
-    call(bpy.ops.glossy.capture_probes)
+    material, obj = captured("Cut", "CutMat")
     call(bpy.ops.glossy.bake_materials)
     path = Path(material.glossy.bake_path)
     data = path.read_bytes()
@@ -260,10 +261,7 @@ def truncated_bake():
 def refused_settings():
     """Settings refused before any file is written."""
     out = {}
-    material = shiny("Refused")
-    obj = ball("Refused", 0.0, material)
-    select_only(obj)
-    call(bpy.ops.glossy.capture_probes)
+    material, _ = captured("Refused", "Refused")
     settings = material.glossy
     settings.slices, settings.map_size = 256, 64  # 256 x 66 rows = 16,896 > 16,384
     out["atlas"] = call(bpy.ops.glossy.bake_materials)
