@@ -55,7 +55,8 @@ from .progress import report
 
 __all__ = ["PARAMETERIZATIONS", "MAPS", "METHODS", "Factorization", "factorize",
            "check_arguments", "matrix_for",
-           "hemisphere_directions", "hemisphere_coords", "stratified_pairs", "error"]
+           "hemisphere_directions", "hemisphere_coords", "stratified_pairs", "error", "pack",
+           "atlas_lookup"]
 
 PARAMETERIZATIONS = ("incident-view", "elevation-azimuth", "half-difference", "gram-schmidt")
 MAPS = ("xy", "parabolic")
@@ -625,3 +626,51 @@ def matrix_for(brdf, parameterization, size, kind="xy"):
     """The sampled matrix of a parameterization (to factor it several ways)."""
     check_arguments(size, 1, parameterization, kind, "svd", 2.0)
     return _Matrix(parse(brdf), _Grid(parameterization, size, kind))
+
+
+# --- one texture for shaders ----------------------------------------------------------
+def pack(factorization):
+    """The factors as one padded atlas for GPU lookups: (image, meta).
+
+    image: (2 (n + 2), K (n + 2), 3) float32, first row at the top. Term k's
+    g_k tile has its top-left texel at (row 1, column k (n + 2) + 1), h_k's at
+    (row n + 3, the same column); each tile is ringed by one texel repeating
+    its edge (wrapped instead for the azimuth axes of ``elevation-azimuth``),
+    so hardware bilinear filtering at continuous texel coordinates clamped to
+    [-0.5, n - 0.5] reads exactly :meth:`Factorization.evaluate`'s values.
+    Tiles hold the normalized factors; ``meta["scale"]`` is the (K, 3) product
+    scale_g scale_h per term.
+    """
+    f = factorization
+    n, count = f.size, f.terms
+    tile = n + 2
+    image = np.zeros((2 * tile, count * tile, 3), np.float32)
+    wrap = f.parameterization == "elevation-azimuth"
+    for k in range(count):
+        for row, texture, wrapped in ((0, f.g[k], False), (1, f.h[k], wrap)):
+            mode = "wrap" if wrapped else "edge"
+            image[row * tile:(row + 1) * tile, k * tile:(k + 1) * tile] = np.pad(
+                texture, ((1, 1), (1, 1), (0, 0)), mode=mode)
+    meta = f.meta()
+    meta.update({"layout": "separable-atlas", "tile": tile,
+                 "scale": (f.scale_g * f.scale_h).tolist()})
+    return image, meta
+
+
+def atlas_lookup(image, meta, wi, wo, terms=None):
+    """Reconstructed f (..., 3) from a packed atlas, as a shader reads it:
+    bilinear taps at clamped texel coordinates inside each padded tile."""
+    grid = _Grid(meta["parameterization"], int(meta["size"]), meta["map"])
+    n, tile = grid.size, int(meta["tile"])
+    (uc, ur), (vc, vr) = grid.coords(np.asarray(wi, np.float64), np.asarray(wo, np.float64))
+    scale = np.asarray(meta["scale"])
+    total = 0.0
+    for k in range(terms or int(meta["terms"])):
+        values = []
+        for row, (col, rw) in ((0, (uc, ur)), (1, (vc, vr))):
+            col = np.clip(col, -0.5, n - 0.5) + 1 + k * tile
+            rw = np.clip(rw, -0.5, n - 0.5) + 1 + row * tile
+            values.append(_bilinear(image, col, rw))
+        total = total + values[0] * values[1] * scale[k]
+    above = (np.asarray(wi)[..., 2] > 0) & (np.asarray(wo)[..., 2] > 0)
+    return np.where(above[..., None], total, 0.0)

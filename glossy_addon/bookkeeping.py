@@ -18,6 +18,8 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "size_mode": material_settings.size_mode,
            "lobes": material_settings.lobes if material_settings.method == "3d" else 1,
            "diffuse": [round(c, 6) for c in material_settings.diffuse],
+           "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
+                      material_settings.lamp_terms] if material_settings.lamps else None),
            "probe": probe_key}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -44,13 +46,18 @@ def bake_status(material_settings, probe_path) -> str:
     """``missing`` (no file), ``damaged`` (a baked file is not as Glossy wrote it:
     truncated, rewritten or replaced, judged by its recorded size and time),
     ``stale`` (inputs changed) or ``up to date``."""
-    if not material_settings.bake_path or not Path(material_settings.bake_path).exists():
+    settings = material_settings
+    env_expected = bool(settings.bake_path) or not settings.lamps or \
+        not settings.lamp_path  # lamps-only bakes (anisotropic BRDFs) have no map
+    if env_expected and not (settings.bake_path and Path(settings.bake_path).exists()):
+        return "missing"
+    if settings.lamps and not (settings.lamp_path and Path(settings.lamp_path).exists()):
         return "missing"
     if any(material_settings.diffuse) and not (
             material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):
         return "missing"
     for path, written in stamps(material_settings.bake_stamp).items():
-        if path in (material_settings.bake_path, material_settings.diffuse_path) and \
+        if path in (settings.bake_path, settings.diffuse_path, settings.lamp_path) and \
                 stamp(path) != written:
             return "damaged"
     if material_settings.bake_hash != bake_inputs_hash(material_settings, probe_path):

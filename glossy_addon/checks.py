@@ -4,7 +4,7 @@ Each failure is one BakeError naming the material and the field, raised
 before a file is written or a property changed (bake_materials._prepare).
 """
 
-from ..bake import brdf
+from ..bake import brdf, separable
 from ..bake.errors import BakeError
 from ..bake.resolution import MIN_ROWS
 
@@ -56,3 +56,9 @@ def check_settings(material) -> None:
         raise BakeError(f"{material.name}: {settings.slices} slices x {lobes} lobes do not "
                         f"fit the GPU's {TEXTURE_LIMIT}-row texture limit at any map size")
     brdf.parse(settings.brdf_spec())  # a bad spec is refused here, with its own message
+    if settings.lamps:
+        try:
+            separable.check_arguments(settings.lamp_size, settings.lamp_terms,
+                                      settings.lamp_parameterization, "xy", "svd", 2.0)
+        except BakeError as error:
+            raise BakeError(f"{material.name}: lamp factors: {error}") from None

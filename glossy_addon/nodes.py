@@ -210,7 +210,7 @@ def _group_node(b, tree, values):
     return node.outputs
 
 
-def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
+def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None):
     """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
 
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
@@ -219,17 +219,74 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
     (image, meta) irradiance atlas (bake.atlas.pack_irradiance) added on top,
     looked up at the normal. ``fresnel_ior`` > 1 blends them as Heidrich 3.1.1,
     F glossy + (1 - F) diffuse, with Blender's Fresnel node (exact dielectric).
+    ``lamps``: (image, meta, lamp objects, diffuse colour) of a bake.separable
+    atlas: the lamps' glossy and diffuse terms (glossy_addon.lamps) join the
+    environment's before that blend. ``image`` None: lamps only (no environment).
     """
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.animation_data_clear()  # the previous attach's lamp drivers
+    tree.nodes.clear()
+    b = _Builder(tree)
+    value = _environment(b, image, meta) if image is not None else None
+    lamp_diffuse = None
+    if lamps:
+        from .lamps import lamp_terms
+        lamp_image, lamp_meta, lamp_objects, diffuse_colour = lamps
+        lamp_glossy, lamp_diffuse = lamp_terms(
+            b, lamp_image, lamp_meta, lamp_objects,
+            diffuse_colour if diffuse is not None else None)
+        if lamp_glossy is not None:
+            value = lamp_glossy if value is None else _add(b, value, lamp_glossy)
+    if value is None:
+        value = b.combine(0.0, 0.0, 0.0)
+    if diffuse is not None:
+        diffuse_value = _irradiance(b, *diffuse)
+        if lamp_diffuse is not None:
+            diffuse_value = _add(b, diffuse_value, lamp_diffuse)
+        if fresnel_ior > 1.0:
+            fresnel = b._place(tree.nodes.new("ShaderNodeFresnel"))
+            fresnel.inputs["IOR"].default_value = fresnel_ior
+            value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
+        else:
+            value = _add(b, value, diffuse_value)
+    emission = b._place(tree.nodes.new("ShaderNodeEmission"))
+    b.link(value, emission.inputs["Color"])
+    emission.inputs["Strength"].default_value = 1.0
+    output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
+    b.link(emission.outputs[0], output.inputs["Surface"])
+    material["glossy_lookup_version"] = GROUP_VERSION
+    return material
+
+
+def _add(b, a, c):
+    node = b._place(b.nodes.new("ShaderNodeMix"))
+    node.data_type = "RGBA"
+    node.blend_type = "ADD"
+    node.inputs["Factor"].default_value = 1.0
+    b.link(a, node.inputs[6])
+    b.link(c, node.inputs[7])
+    return node.outputs[2]
+
+
+def _tap(b, uv, source):
+    node = b._place(b.nodes.new("ShaderNodeTexImage"))
+    node.image = source
+    node.interpolation = "Closest"
+    node.extension = "EXTEND"
+    b.link(uv, node.inputs["Vector"])
+    return node.outputs["Color"]
+
+
+def _environment(b, image, meta):
+    """The 3D/2D map lookup of the environment (colour socket)."""
     count = int(meta["slices"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
     two_d = meta.get("mode") == "atlas2d"
     mus = [float(m) for m in meta["mu"]]
     if count < 2 or any(abs(mus[k] - k / (count - 1)) > 1e-9 for k in range(1, count)):
         raise ValueError("the atlas's slices must sit at mu = k / (K - 1)")
-    material.use_nodes = True
-    tree = material.node_tree
-    tree.nodes.clear()
-    b = _Builder(tree)
+    tree = b.tree
     geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
     normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
     lobes = 1 if two_d else int(meta.get("lobes", 1))
@@ -239,12 +296,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
              "Slice Width": float(width), "Atlas Cols": atlas_cols}
 
     def tap(uv, source=image):
-        node = b._place(b.nodes.new("ShaderNodeTexImage"))
-        node.image = source
-        node.interpolation = "Closest"
-        node.extension = "EXTEND"
-        b.link(uv, node.inputs["Vector"])
-        return node.outputs["Color"]
+        return _tap(b, uv, source)
 
     def blend(kind, a, c):
         node = b._place(b.nodes.new("ShaderNodeMix"))
@@ -277,34 +329,27 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0):
             values.append(sample)
         lobe_value = b.mix(slice_blend["T"], values[0], values[1])
         value = lobe_value if value is None else blend("ADD", value, lobe_value)
-    if diffuse is not None:
-        diffuse_image, diffuse_meta = diffuse
-        # Offset -acos(mu) turns r onto the normal: the irradiance lookup.
-        mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", b.vec("NORMALIZE", normal),
-                                                       b.vec("NORMALIZE", view)), 0.0), 1.0)
-        offset = b.math("MULTIPLY", b.math("ARCCOSINE", mu), -1.0)
-        taps = _group_node(b, atlas_taps_group(), {
-            "Normal": normal, "Incoming": view, "K": 0.0, "Offset": offset, "Slices": 1.0,
-            "Slice Height": float(diffuse_meta["slice_height"]),
-            "Slice Width": float(diffuse_meta["slice_width"]),
-            "Atlas Cols": float(diffuse_meta["slice_width"] + 3)})
-        top = b.mix(taps["FX"], tap(taps["UV00"], diffuse_image), tap(taps["UV01"], diffuse_image))
-        bottom = b.mix(taps["FX"], tap(taps["UV10"], diffuse_image),
-                       tap(taps["UV11"], diffuse_image))
-        diffuse_value = b.mix(taps["FY"], top, bottom)
-        if fresnel_ior > 1.0:
-            fresnel = b._place(b.nodes.new("ShaderNodeFresnel"))
-            fresnel.inputs["IOR"].default_value = fresnel_ior
-            value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
-        else:
-            value = blend("ADD", value, diffuse_value)
-    emission = b._place(tree.nodes.new("ShaderNodeEmission"))
-    b.link(value, emission.inputs["Color"])
-    emission.inputs["Strength"].default_value = 1.0
-    output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
-    b.link(emission.outputs[0], output.inputs["Surface"])
-    material["glossy_lookup_version"] = GROUP_VERSION
-    return material
+    return value
+
+
+def _irradiance(b, diffuse_image, diffuse_meta):
+    """The irradiance atlas looked up at the normal (colour socket)."""
+    geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
+    normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
+    # Offset -acos(mu) turns r onto the normal: the irradiance lookup.
+    mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", b.vec("NORMALIZE", normal),
+                                                   b.vec("NORMALIZE", view)), 0.0), 1.0)
+    offset = b.math("MULTIPLY", b.math("ARCCOSINE", mu), -1.0)
+    taps = _group_node(b, atlas_taps_group(), {
+        "Normal": normal, "Incoming": view, "K": 0.0, "Offset": offset, "Slices": 1.0,
+        "Slice Height": float(diffuse_meta["slice_height"]),
+        "Slice Width": float(diffuse_meta["slice_width"]),
+        "Atlas Cols": float(diffuse_meta["slice_width"] + 3)})
+    top = b.mix(taps["FX"], _tap(b, taps["UV00"], diffuse_image),
+                _tap(b, taps["UV01"], diffuse_image))
+    bottom = b.mix(taps["FX"], _tap(b, taps["UV10"], diffuse_image),
+                   _tap(b, taps["UV11"], diffuse_image))
+    return b.mix(taps["FY"], top, bottom)
 
 
 def load_atlas(path, meta_name=None, precision="float32"):

@@ -72,7 +72,8 @@ def _object_records(obj):
 
 def _material_records(material):
     settings = material.glossy
-    return [settings.bake_path, settings.diffuse_path] + history(settings, "bake_history")
+    return [settings.bake_path, settings.diffuse_path, settings.lamp_path] + \
+        history(settings, "bake_history")
 
 
 def holders(path) -> list:
@@ -83,7 +84,8 @@ def holders(path) -> list:
         if resolved(obj.glossy.probe_path) == path:
             found.append(obj)
     for material in bpy.data.materials:
-        if path in (resolved(material.glossy.bake_path), resolved(material.glossy.diffuse_path)):
+        if path in (resolved(material.glossy.bake_path), resolved(material.glossy.diffuse_path),
+                    resolved(material.glossy.lamp_path)):
             found.append(material)
     return found
 
@@ -124,7 +126,8 @@ def _current(data) -> list:
     settings = data.glossy
     if isinstance(data, bpy.types.Object):
         return [resolved(settings.probe_path)]
-    return [resolved(settings.bake_path), resolved(settings.diffuse_path)]
+    return [resolved(settings.bake_path), resolved(settings.diffuse_path),
+            resolved(settings.lamp_path)]
 
 
 def used_by_other_owner(path, data) -> str | None:

@@ -169,6 +169,35 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
                     "(Auto; bake time grows with its square)",
         default=256, min=0, max=1024)
+    lamps: bpy.props.BoolProperty(
+        name="Lamps", description="Bake separable BRDF factors (Kautz & McCool 1999) so the "
+        "attached material responds to the scene's lamps", default=True)
+    lamp_parameterization: bpy.props.EnumProperty(
+        name="Parameterization", description="The pair of 2D parameters the BRDF is factored "
+        "in (bake.separable)",
+        items=[("half-difference", "Half / Difference", "Rusinkiewicz's half and difference "
+                "vectors: near-specular BRDFs"),
+               ("gram-schmidt", "Gram-Schmidt", "Half vector and view in the eq. 4 frame"),
+               ("incident-view", "Incident / View", "Light and view directions"),
+               ("elevation-azimuth", "Elevation / Azimuth", "(theta_i, theta_o), "
+                "(phi_i, phi_o): velvet-like BRDFs")],
+        default="half-difference")
+    lamp_size: bpy.props.IntProperty(
+        name="Factor Size", description="Texels per side of each factor texture (narrow lobes "
+        "need more; the factoring time grows with its fourth power)", default=64, min=0,
+        max=1024)
+    lamp_terms: bpy.props.IntProperty(
+        name="Terms", description="Pairs of factor textures (truncated SVD)", default=2, min=0,
+        max=64)
+    lamp_path: bpy.props.StringProperty(name="Baked Factors", subtype="FILE_PATH")
+    lamp_error: bpy.props.FloatProperty(
+        name="Factor Error", description="Cosine-weighted relative RMS error of the factored "
+        "BRDF over 8100 stratified pairs (bake.separable.error); -1: none", default=-1.0)
+    lamp_set: bpy.props.StringProperty(
+        name="Attached Lamps", description="The lamps (names, types) at the last attach (JSON)")
+    lamp_skipped: bpy.props.StringProperty(
+        name="Skipped Lamps", description="Lamps the last attach could not convert, with the "
+        "reason (JSON)")
     chosen_size: bpy.props.IntProperty(name="Baked Size", description="Rows of the last bake")
     size_reason: bpy.props.StringProperty(
         name="Size Reason", description="Why the last bake has the size it has")

@@ -35,8 +35,8 @@ def truth_material(material):
     name = getattr(model, "name", "")
     if name not in CYCLES_DISTRIBUTIONS and name != "lambert":
         return None, f"Cycles has no '{name}' BSDF"
-    if name != "lambert" and not model.isotropic:
-        return None, "anisotropic truth needs the lookup's tangent, which Glossy does not bake"
+    if name != "lambert" and not model.isotropic and model.params.get("roughness") is None:
+        return None, "anisotropic truth needs Blender's Roughness and Anisotropy in the spec"
     truth = bpy.data.materials.new(f"{material.name} (Glossy truth)")
     truth.use_nodes = True
     tree = truth.node_tree
@@ -51,6 +51,11 @@ def truth_material(material):
         surface.distribution = CYCLES_DISTRIBUTIONS[name]
         surface.inputs["Roughness"].default_value = math.sqrt(model.ax)  # alpha = roughness^2
         surface.inputs["Anisotropy"].default_value = 0.0
+        if not model.isotropic:  # Blender's own parameters; the Tangent socket unconnected
+            # means radial about the object's Z, the frame Glossy's lamp terms use
+            surface.inputs["Roughness"].default_value = model.params["roughness"]
+            surface.inputs["Anisotropy"].default_value = model.params["anisotropy"]
+            surface.inputs["Rotation"].default_value = model.params["rotation"]
         surface.inputs["Color"].default_value = (*model.params["color"], 1.0)
     if any(settings.diffuse) and name != "lambert":
         diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")

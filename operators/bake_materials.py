@@ -6,12 +6,13 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import atlas, exr, outputs, prefilter
+from ..bake import atlas, brdf, exr, outputs, prefilter, separable
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled
 from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
+from ..glossy_addon.lamps import lamp_set, scene_lamps
 from ..glossy_addon.materials import stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
@@ -27,6 +28,61 @@ def _scaled(steps, start, stop):
         except StopIteration as done:
             return done.value
         yield start + (stop - start) * fraction, message
+
+
+def _factor_steps(settings):
+    """The material's BRDF factored for lamps (bake.separable), as steps: one
+    (fraction, message) before the work, the Factorization as the value."""
+    yield 0.0, f"factoring the BRDF for lamps ({settings.lamp_size}^2 x {settings.lamp_terms})"
+    return separable.factorize(settings.brdf_spec(), settings.lamp_parameterization, "svd",
+                               settings.lamp_terms, settings.lamp_size, "xy")
+
+
+def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,
+                probe_path, obj_name, reason, rows=0):
+    """Write one material's files together (all or none, each whole) and record
+    them in its settings; a generator (it yields nothing) so that steps can
+    ``yield from`` it. Returns the step's message."""
+    settings = material.glossy
+    stamp_meta = {"generator": "glossy-blender", "probe": probe_path, "material": material.name}
+    written = []
+    with outputs.Staged() as staged:
+        if environment is not None:
+            image, atlas_meta = environment
+            half = atlas.storage_precision(image) == "half"
+            if not half:
+                reason += "; kept as 32-bit float (brighter than a half float's 65504)"
+            atlas_meta.update({**stamp_meta, "size_reason": reason,
+                               "precision": "half" if half else "float32"})
+            staged.add(path, lambda target: exr.write(target, image, atlas_meta, half=half))
+            written.append(path)
+        if diffuse is not None:
+            diffuse_image, diffuse_meta = diffuse
+            diffuse_meta.update({**stamp_meta, "precision": "float32"})
+            staged.add(diffuse_path, lambda target: exr.write(target, diffuse_image,
+                                                              diffuse_meta))
+            written.append(diffuse_path)
+        if factors is not None:
+            lamp_image, lamp_meta = separable.pack(factors)
+            lamp_meta.update({**stamp_meta, "precision": "float32"})
+            staged.add(lamp_path, lambda target: exr.write(target, lamp_image, lamp_meta))
+            written.append(lamp_path)
+    settings.bake_path = str(path) if environment is not None else ""
+    settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
+    settings.lamp_path = str(lamp_path) if factors is not None else ""
+    settings.lamp_error = separable.error(factors, settings.brdf_spec()) \
+        if factors is not None else -1.0
+    settings.bake_owner = material.name
+    settings.bake_probe = probe_path
+    settings.bake_object = obj_name
+    settings.bake_stamp = json.dumps({str(p): ownership.stamp(p) for p in written})
+    ownership.remember(settings, "bake_history", *map(str, written))
+    settings.chosen_size = rows
+    settings.size_reason = reason
+    settings.bake_hash = bake_inputs_hash(settings, probe_path)
+    settings.bake_time = time.time()
+    return f"baked {material.name}: {reason}"
+    yield  # a generator
 
 
 def _object_with_probe(context):
@@ -93,26 +149,50 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             stem = f"{bpy.path.clean_name(obj.name)}_{bpy.path.clean_name(material.name)}"
             path = ownership.claim(folder, stem, f"_{settings.method}.exr", material, taken)
             taken.add(path)
-            diffuse_path = None
+            diffuse_path = lamp_path = None
             if any(settings.diffuse):
                 diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
                 taken.add(diffuse_path)
+            if settings.lamps:
+                lamp_path = ownership.claim(folder, stem, "_lamps.exr", material, taken)
+                taken.add(lamp_path)
+            if not brdf.parse(settings.brdf_spec()).isotropic:
+                if not settings.lamps:
+                    raise BakeError(
+                        f"{material.name}: {settings.brdf_spec()} is anisotropic: the "
+                        f"environment map needs an isotropic BRDF; turn on Lamps to bake its "
+                        f"lamp response")
+                self._warnings.append(
+                    f"{material.name}: anisotropic BRDF: lamps only (Glossy's environment "
+                    f"maps need an isotropic BRDF), the environment reflection is left out")
             others = ownership.shared_probe_users(material, obj)
             if others:
                 self._warnings.append(
                     f"{material.name} is also used by {', '.join(others)}, whose probe differs: "
                     f"one material holds one bake, so all its users now show {obj.name}'s "
                     f"(give each object its own copy of the material)")
-            todo.append((material.name, path, diffuse_path))
+            todo.append((material.name, path, diffuse_path, lamp_path))
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
-    def _bake_steps(material, path, diffuse_path, probe, meta, probe_path, obj_name):
+    def _bake_steps(material, path, diffuse_path, lamp_path, probe, meta, probe_path,
+                    obj_name):
         """One material's bake as steps: yields (fraction, message) after the fit, each
         batch of slices and the diffuse map; writes the files only at the end, both
         or neither, so a bake stopped between steps leaves nothing. Returns the step's
         message."""
         settings = material.glossy
+        spec = settings.brdf_spec()
+        if not brdf.parse(spec).isotropic:  # lamps only (checked in _prepare)
+            path = diffuse_path = None
+        factors = None
+        if lamp_path is not None:
+            factors = yield from _scaled(background_steps(_factor_steps(settings)), 0.0,
+                                         0.1 if path else 1.0)
+        if path is None:
+            return (yield from _write_bake(material, None, None, None, lamp_path, factors,
+                                           probe_path, obj_name,
+                                           "no environment map (anisotropic BRDF)"))
         layout = meta.get("layout", "cube")
         auto = settings.size_mode == "AUTO"
         size = "auto" if auto else settings.map_size
@@ -120,14 +200,14 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         if settings.method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
             baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
-                probe, settings.brdf_spec(), "split-sum", face, layout=layout)), 0.0, 0.85)
+                probe, spec, "split-sum", face, layout=layout)), 0.1, 0.85)
             image, atlas_meta = atlas.pack_split_sum(baked)
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
             baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
-                probe, settings.brdf_spec(), settings.method, size, slices=settings.slices,
+                probe, spec, settings.method, size, slices=settings.slices,
                 lobes_count=settings.lobes if settings.method == "3d" else 1, layout=layout,
-                max_size=max_size)), 0.0, 0.85)
+                max_size=max_size)), 0.1, 0.85)
             image, atlas_meta = atlas.pack(baked)
             rows, reason = baked.meta["size"], baked.meta["size_reason"]
         diffuse = None
@@ -137,42 +217,19 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 probe, f"lambert:color={color}", "irradiance", size, layout=layout,
                 max_size=max_size)), 0.85, 0.95)
             diffuse = atlas.pack_irradiance(irradiance)
-        half = atlas.storage_precision(image) == "half"
-        if not half:
-            reason += "; kept as 32-bit float (brighter than a half float's 65504)"
-        atlas_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                           "material": material.name, "size_reason": reason,
-                           "precision": "half" if half else "float32"})
-        with outputs.Staged() as staged:  # both files or neither, each whole
-            staged.add(path, lambda target: exr.write(target, image, atlas_meta, half=half))
-            if diffuse is not None:
-                diffuse_image, diffuse_meta = diffuse
-                diffuse_meta.update({"generator": "glossy-blender", "probe": probe_path,
-                                     "material": material.name, "precision": "float32"})
-                staged.add(diffuse_path, lambda target: exr.write(target, diffuse_image,
-                                                                  diffuse_meta))
-        written = [path] + ([diffuse_path] if diffuse is not None else [])
-        settings.bake_path = str(path)
-        settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
-        settings.bake_owner = material.name
-        settings.bake_probe = probe_path
-        settings.bake_object = obj_name
-        settings.bake_stamp = json.dumps({str(p): ownership.stamp(p) for p in written})
-        ownership.remember(settings, "bake_history", *map(str, written))
-        settings.chosen_size = int(rows)
-        settings.size_reason = reason
-        settings.bake_hash = bake_inputs_hash(settings, probe_path)
-        settings.bake_time = time.time()
-        return f"baked {material.name}: {reason}"
+        return (yield from _write_bake(material, path, (image, atlas_meta), diffuse,
+                                       diffuse_path if diffuse is not None else None,
+                                       lamp_path, factors, probe_path, obj_name, reason,
+                                       int(rows)))
 
     def execute(self, context):
         try:
             obj, probe, meta, probe_path, todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                for index, (name, path, diffuse_path) in enumerate(todo):
+                for index, (name, path, diffuse_path, lamp_path) in enumerate(todo):
                     progress(index / max(len(todo), 1), f"baking {name}")
                     run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
-                                               probe, meta, probe_path, obj.name),
+                                               lamp_path, probe, meta, probe_path, obj.name),
                               scaled(progress, index / len(todo), (index + 1) / len(todo)))
                     progress((index + 1) / len(todo), f"baked {name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
@@ -195,8 +252,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return todo
 
     def _run_step(self, context, step):
-        name, path, diffuse_path = step
-        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, self._probe,
+        name, path, diffuse_path, lamp_path = step
+        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
+                                 self._probe,
                                  self._meta, self._probe_path, self._object_name)
         return prefixed_steps(f"{name}: ", steps)
 
@@ -222,27 +280,35 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         attached = 0
         try:
             for material in _materials(obj):  # every check before the first change
-                if material.glossy.bake_path:
+                if material.glossy.bake_path or material.glossy.lamp_path:
                     check_settings(material)
                     if bake_status(material.glossy, obj.glossy.probe_path) == "damaged":
                         raise BakeError(f"{material.name}: the baked file "
                                         f"{material.glossy.bake_path} is damaged or was "
                                         f"changed since the bake: bake again")
+            lamps, skipped = scene_lamps(context.scene)
             for material in _materials(obj):
-                path = material.glossy.bake_path
-                if not path:
+                settings = material.glossy
+                path = settings.bake_path
+                if not path and not settings.lamp_path:
                     continue
-                image_data, meta = exr.read(path)
-                diffuse = None
-                if material.glossy.diffuse_path:
-                    _, diffuse_meta = exr.read(material.glossy.diffuse_path)
-                    diffuse = (load_atlas(material.glossy.diffuse_path,
+                image = meta = diffuse = lamp_terms = None
+                if path:
+                    _, meta = exr.read(path)
+                    image = load_atlas(path, precision=meta.get("precision", "float32"))
+                if settings.diffuse_path:
+                    _, diffuse_meta = exr.read(settings.diffuse_path)
+                    diffuse = (load_atlas(settings.diffuse_path,
                                           precision=diffuse_meta.get("precision", "float32")),
                                diffuse_meta)
+                if settings.lamp_path and settings.lamps:
+                    _, lamp_meta = exr.read(settings.lamp_path)
+                    lamp_terms = (load_atlas(settings.lamp_path, precision="float32"), lamp_meta,
+                                  lamps, tuple(settings.diffuse))
                 stash_original(material)
-                build_lookup(material, load_atlas(path, precision=meta.get("precision", "float32")),
-                             meta, diffuse,
-                             material.glossy.fresnel_ior)
+                build_lookup(material, image, meta, diffuse, settings.fresnel_ior, lamp_terms)
+                settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
+                settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
@@ -250,7 +316,10 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         if not attached:
             self.report({"ERROR"}, "No baked material to attach: bake first")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Glossy attached {attached} material(s)")
+        for name, reason in skipped:
+            self.report({"WARNING"}, f"Lamp {name} skipped: {reason}")
+        self.report({"INFO"}, f"Glossy attached {attached} material(s)"
+                    + (f" lit by {len(lamps)} lamp(s)" if lamps else ""))
         return {"FINISHED"}
 
 

@@ -67,7 +67,8 @@ class GLOSSY_OT_clear(bpy.types.Operator):
                 seen.add(material.name)
                 glossy = material.glossy
                 baked_for = glossy.bake_object
-                if glossy.bake_path and baked_for and baked_for not in names and \
+                baked = glossy.bake_path or glossy.lamp_path
+                if baked and baked_for and baked_for not in names and \
                         baked_for in bpy.data.objects:
                     kept.append(f"{material.name} (it shows {baked_for}'s bake; clear "
                                 f"{baked_for} to remove it)")
@@ -86,7 +87,9 @@ class GLOSSY_OT_clear(bpy.types.Operator):
             self._counts["restored"] += 1
         if self.bakes:
             glossy = material.glossy
-            glossy.bake_path = glossy.diffuse_path = glossy.bake_hash = ""
+            glossy.bake_path = glossy.diffuse_path = glossy.lamp_path = glossy.bake_hash = ""
+            glossy.lamp_set = glossy.lamp_skipped = ""
+            glossy.lamp_error = -1.0
             glossy.bake_owner = glossy.bake_probe = glossy.bake_object = ""
             glossy.bake_stamp = glossy.bake_history = ""
             glossy.bake_time = 0.0

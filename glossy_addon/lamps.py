@@ -1,0 +1,395 @@
+"""Blender's lamps in Glossy's materials: separable BRDF factors (Kautz & McCool 1999).
+
+For each lamp that lights the object the attached material adds
+sum_k s_k g_k(u) h_k(v) cos(theta_i) E, with (u, v) the factorization's
+parameterization of (light, view) in the surface's tangent frame (Cycles'
+convention: Y = normalize(n x T), X = Y x n, T = the Tangent node, radial
+about the object's Z, which is what Cycles' Glossy BSDF uses unconnected).
+
+E is the irradiance a surface facing the lamp receives, converted as Cycles
+5.0 does (measured with a white Lambert plane under each lamp; see
+tests/blender/test_lamps.py):
+
+- point, power P, radius r at distance d: E = P / (4 pi (d^2 + r^2))
+  (Cycles treats the sphere as a disc facing the point);
+- spot: the point's E times smoothstep(0, 1, (cos a - cos(size / 2)) /
+  ((1 - cos(size / 2)) blend)), a the angle from the lamp's -Z (no extra
+  cosine); the object's scale, which Cycles uses to squash the cone, is ignored;
+- sun, strength S: E = S along the lamp's -Z (its angle is taken as 0);
+- area, power P: a point at its centre with intensity P cos(a) / pi (the
+  Lambertian emitter of radiance P / (pi A)); measured against Cycles this is
+  within 1.6% for a square 0.1 of its distance wide, 9% at 0.5; spread below
+  180 degrees is not converted (the lamp is skipped and the panel says so).
+
+Colour, power, radius, cone, position and direction are read live through
+drivers (simple expressions: no Python needs to run), so moving, re-aiming or
+re-colouring a lamp needs no re-bake or re-attach; adding or removing one
+needs a re-attach (the panel says when the set changed). Lamps with their own
+node trees (textures, IES) are skipped and named.
+
+Shadows: EEVEE gives a material no per-lamp visibility (Shader to RGB returns
+the sum over every lamp and the world), so the lamp term is unshadowed; the
+cos(theta_i) clamp removes the self-shadowed side of a convex object only.
+"""
+
+import json
+import math
+
+import bpy
+
+from .nodes import _Builder, _group, _io
+
+GROUP_VERSION = 1
+KINDS = ("POINT", "SPOT", "SUN", "AREA")
+
+
+# --- which lamps ----------------------------------------------------------------------
+def _node_tree_problem(light):
+    tree = getattr(light, "node_tree", None)
+    if tree is None or not getattr(light, "use_nodes", True):
+        return None
+    kinds = {node.type for node in tree.nodes}
+    if not kinds <= {"EMISSION", "OUTPUT_LIGHT"}:
+        return "its node tree has nodes Glossy cannot convert (textures, IES, ...)"
+    for node in tree.nodes:
+        if node.type == "EMISSION":
+            color = tuple(node.inputs["Color"].default_value)[:3]
+            if node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked or \
+                    abs(node.inputs["Strength"].default_value - 1.0) > 1e-6 or \
+                    any(abs(c - 1.0) > 1e-6 for c in color):
+                return "its Emission node changes the lamp's colour or strength"
+    return None
+
+
+def lamp_problem(obj):
+    """Why Glossy cannot convert this lamp object, or None."""
+    light = obj.data
+    if light.type not in KINDS:
+        return f"lamp type {light.type} is not supported"
+    if light.type == "AREA" and getattr(light, "spread", math.pi) < math.pi - 1e-6:
+        return "an area lamp's spread below 180 degrees is not converted"
+    return _node_tree_problem(light)
+
+
+def scene_lamps(scene):
+    """(lamps, skipped): the lamp objects that render in ``scene`` and that Glossy
+    converts (sorted by name), and (name, reason) for those it skips."""
+    lamps, skipped = [], []
+    for obj in sorted(scene.objects, key=lambda o: o.name):
+        if obj.type != "LIGHT" or obj.hide_render:
+            continue
+        problem = lamp_problem(obj)
+        if problem:
+            skipped.append((obj.name, problem))
+        else:
+            lamps.append(obj)
+    return lamps, skipped
+
+
+def lamp_set(lamps):
+    """The JSON signature of a set of lamps (names and types) kept at attach."""
+    return json.dumps(sorted([obj.name, obj.data.type] for obj in lamps))
+
+
+def lamp_set_changed(material, scene):
+    """True when the scene's converted lamps differ from the ones attached."""
+    if not material.glossy.lamp_set:
+        return False
+    return lamp_set(scene_lamps(scene)[0]) != material.glossy.lamp_set
+
+
+# --- shared node groups ----------------------------------------------------------------
+FLOAT, VECTOR, COLOR = "NodeSocketFloat", "NodeSocketVector", "NodeSocketColor"
+
+
+def _colour_scale(b, colour, factor):
+    node = b._place(b.nodes.new("ShaderNodeVectorMath"))
+    node.operation = "SCALE"
+    b.link(colour, node.inputs[0])
+    b.link(factor, node.inputs["Scale"])
+    return node.outputs["Vector"]
+
+
+def _point_irradiance(b, inputs):
+    """(unit vector to the lamp, distance^2) from the shading point."""
+    offset = b.vec("SUBTRACT", inputs["Lamp Location"], inputs["Position"])
+    distance2 = b.vec("DOT_PRODUCT", offset, offset)
+    return b.vec("NORMALIZE", offset), distance2
+
+
+def lamp_group(kind):
+    """Shared group ``Glossy <Kind> Lamp v1``: Light (unit vector from the shading
+    point to the lamp, world) and Irradiance (W/m^2 on a surface facing it, RGB)."""
+    name = f"Glossy {kind.title()} Lamp v{GROUP_VERSION}"
+    inputs = [("Position", VECTOR), ("Lamp Location", VECTOR), ("Lamp Direction", VECTOR),
+              ("Color", COLOR), ("Power", FLOAT), ("Radius", FLOAT), ("Cos Half Angle", FLOAT),
+              ("Blend", FLOAT)]
+    tree = _group(name, inputs, [("Light", VECTOR), ("Irradiance", COLOR)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, o = _io(tree)
+    if kind == "SUN":
+        light = b.vec("SCALE", b.vec("NORMALIZE", i["Lamp Direction"]), scale=-1.0)
+        strength = i["Power"]
+    else:
+        light, distance2 = _point_irradiance(b, i)
+        if kind == "AREA":  # Lambertian emitter along its -Z: P cos(a) / (pi d^2)
+            cos_a = b.math("MAXIMUM", b.math("MULTIPLY", b.vec(
+                "DOT_PRODUCT", light, b.vec("NORMALIZE", i["Lamp Direction"])), -1.0), 0.0)
+            strength = b.math("DIVIDE", b.math("MULTIPLY", i["Power"], cos_a),
+                              b.math("MULTIPLY", distance2, math.pi))
+        else:  # point and spot: P / (4 pi (d^2 + r^2))
+            radius2 = b.math("MULTIPLY", i["Radius"], i["Radius"])
+            strength = b.math("DIVIDE", i["Power"], b.math(
+                "MULTIPLY", b.math("ADD", distance2, radius2), 4.0 * math.pi))
+        if kind == "SPOT":
+            cos_a = b.math("MULTIPLY", b.vec("DOT_PRODUCT", light, b.vec(
+                "NORMALIZE", i["Lamp Direction"])), -1.0)
+            cos_half = i["Cos Half Angle"]
+            width = b.math("MAXIMUM", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, cos_half),
+                                             i["Blend"]), 1e-9)
+            x = b.math("MINIMUM", b.math("MAXIMUM", b.math(
+                "DIVIDE", b.math("SUBTRACT", cos_a, cos_half), width), 0.0), 1.0)
+            smooth = b.math("MULTIPLY", b.math("MULTIPLY", x, x),
+                            b.math("SUBTRACT", 3.0, b.math("MULTIPLY", x, 2.0)))
+            strength = b.math("MULTIPLY", strength, smooth)
+    b.link(light, o["Light"])
+    b.link(_colour_scale(b, i["Color"], strength), o["Irradiance"])
+    return tree
+
+
+def _local(b, vector, x_axis, y_axis, normal):
+    return (b.vec("DOT_PRODUCT", vector, x_axis), b.vec("DOT_PRODUCT", vector, y_axis),
+            b.vec("DOT_PRODUCT", vector, normal))
+
+
+def _hemisphere_texel(b, x, y, z, size, parabolic):
+    """Continuous texel (column, row) of a local unit vector on a hemisphere map,
+    clamped to [-0.5, size - 0.5] (bake.separable.hemisphere_coords)."""
+    denominator = b.math("ADD", 1.0, b.math("MULTIPLY", parabolic, b.math("MAXIMUM", z, 0.0)))
+    X, Y = b.math("DIVIDE", x, denominator), b.math("DIVIDE", y, denominator)
+    col = b.math("SUBTRACT", b.math("MULTIPLY", b.math("MULTIPLY", b.math("ADD", X, 1.0), 0.5),
+                                    size), 0.5)
+    row = b.math("SUBTRACT", b.math("MULTIPLY", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, Y),
+                                                       0.5), size), 0.5)
+    high = b.math("SUBTRACT", size, 0.5)
+    return (b.math("MINIMUM", b.math("MAXIMUM", col, -0.5), high),
+            b.math("MINIMUM", b.math("MAXIMUM", row, -0.5), high))
+
+
+def _angle_texel(b, angle, period, size):
+    return b.math("SUBTRACT", b.math("MULTIPLY", angle, b.math("DIVIDE", size, period)), 0.5)
+
+
+def _azimuth(b, x, y):
+    phi = b.math("ARCTAN2", y, x)
+    return b.math("ADD", phi, b.math("MULTIPLY", b.math("LESS_THAN", phi, 0.0), 2.0 * math.pi))
+
+
+def coords_group(parameterization):
+    """Shared group ``Glossy Separable <Parameterization> v1``: the continuous texel
+    coordinates of (light, view) on the g and h maps (bake.separable._Grid.coords),
+    Cos Light = max(n.l, 0) and Valid = 1 where light and view are both above the
+    surface."""
+    name = f"Glossy Separable {parameterization.title()} v{GROUP_VERSION}"
+    tree = _group(name, [("Normal", VECTOR), ("Tangent", VECTOR), ("Incoming", VECTOR),
+                         ("Light", VECTOR), ("Size", FLOAT), ("Parabolic", FLOAT)],
+                  [("G Column", FLOAT), ("G Row", FLOAT), ("H Column", FLOAT), ("H Row", FLOAT),
+                   ("Cos Light", FLOAT), ("Valid", FLOAT)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, o = _io(tree)
+    size, parabolic = i["Size"], i["Parabolic"]
+    normal = b.vec("NORMALIZE", i["Normal"])
+    y_axis = b.vec("NORMALIZE", b.vec("CROSS_PRODUCT", normal, i["Tangent"]))
+    x_axis = b.vec("CROSS_PRODUCT", y_axis, normal)
+    wi = _local(b, b.vec("NORMALIZE", i["Light"]), x_axis, y_axis, normal)
+    wo = _local(b, b.vec("NORMALIZE", i["Incoming"]), x_axis, y_axis, normal)
+    if parameterization == "incident-view":
+        g = _hemisphere_texel(b, *wi, size, parabolic)
+        h = _hemisphere_texel(b, *wo, size, parabolic)
+    elif parameterization == "elevation-azimuth":
+        theta_i = b.math("ARCCOSINE", b.math("MINIMUM", b.math("MAXIMUM", wi[2], -1.0), 1.0))
+        theta_o = b.math("ARCCOSINE", b.math("MINIMUM", b.math("MAXIMUM", wo[2], -1.0), 1.0))
+        g = (_angle_texel(b, theta_o, math.pi / 2, size), _angle_texel(b, theta_i, math.pi / 2,
+                                                                       size))
+        h = (_angle_texel(b, _azimuth(b, wo[0], wo[1]), 2 * math.pi, size),
+             _angle_texel(b, _azimuth(b, wi[0], wi[1]), 2 * math.pi, size))
+    else:
+        wi_v, wo_v = b.combine(*wi), b.combine(*wo)
+        half = b.vec("NORMALIZE", b.vec("ADD", wi_v, wo_v))
+        hx, hy, hz = b.separate(half)
+        g = _hemisphere_texel(b, hx, hy, hz, size, parabolic)
+        if parameterization == "half-difference":  # wi turned by -phi_h about z, -theta_h about y
+            e1 = b.vec("NORMALIZE", b.combine(b.math("ADD", hx, 1e-12), hy, 0.0))
+            e1x, e1y, _ = b.separate(e1)
+            sin_t = b.math("SQRT", b.math("MAXIMUM", b.math(
+                "SUBTRACT", 1.0, b.math("MULTIPLY", hz, hz)), 0.0))
+            along = b.math("ADD", b.math("MULTIPLY", wi[0], e1x), b.math("MULTIPLY", wi[1], e1y))
+            dx = b.math("SUBTRACT", b.math("MULTIPLY", hz, along), b.math("MULTIPLY", sin_t, wi[2]))
+            dy = b.math("SUBTRACT", b.math("MULTIPLY", wi[1], e1x), b.math("MULTIPLY", wi[0], e1y))
+            dz = b.vec("DOT_PRODUCT", wi_v, half)
+        else:  # gram-schmidt: x' = normalize(x - hx h), y' = h x x', wo in (x', y', h)
+            xp = b.vec("NORMALIZE", b.vec("SUBTRACT", b.combine(1.0, 0.0, 0.0),
+                                          b.vec("SCALE", half, scale=hx)))
+            yp = b.vec("CROSS_PRODUCT", half, xp)
+            dx, dy, dz = (b.vec("DOT_PRODUCT", wo_v, xp), b.vec("DOT_PRODUCT", wo_v, yp),
+                          b.vec("DOT_PRODUCT", wo_v, half))
+        h = _hemisphere_texel(b, dx, dy, dz, size, parabolic)
+    for name_, value in zip(("G Column", "G Row", "H Column", "H Row"), (*g, *h), strict=True):
+        b.link(value, o[name_])
+    b.link(b.math("MAXIMUM", wi[2], 0.0), o["Cos Light"])
+    b.link(b.math("MULTIPLY", b.math("GREATER_THAN", wi[2], 0.0),
+                  b.math("GREATER_THAN", wo[2], 0.0)), o["Valid"])
+    return tree
+
+
+# --- drivers ------------------------------------------------------------------------------
+def _driver(socket, index, expression, variables):
+    """Drive ``socket.default_value[index]`` (index None: a float socket) by a
+    simple expression of driver variables (name, 'TRANSFORM', object, transform
+    type) or (name, 'PROP', light data, data path)."""
+    curve = socket.driver_add("default_value") if index is None else \
+        socket.driver_add("default_value", index)
+    driver = curve.driver
+    driver.type = "SCRIPTED"
+    for name, kind, target_id, what in variables:
+        variable = driver.variables.new()
+        variable.name = name
+        if kind == "TRANSFORM":
+            variable.type = "TRANSFORMS"
+            target = variable.targets[0]
+            target.id = target_id
+            target.transform_type = what
+            target.transform_space = "WORLD_SPACE"
+            target.rotation_mode = "QUATERNION"
+        else:
+            variable.type = "SINGLE_PROP"
+            target = variable.targets[0]
+            target.id_type = "LIGHT"
+            target.id = target_id
+            target.data_path = what
+    driver.expression = expression
+    return curve
+
+
+def drive_lamp_inputs(node, obj):
+    """Connect a lamp group node's inputs to the lamp object ``obj`` by drivers."""
+    light = obj.data
+    for axis, name in enumerate("XYZ"):
+        _driver(node.inputs["Lamp Location"], axis, "v",
+                [("v", "TRANSFORM", obj, f"LOC_{name}")])
+    rotation = [(n, "TRANSFORM", obj, f"ROT_{n.upper()}") for n in "wxyz"]
+    for axis, expression in enumerate(("-2*(x*z + w*y)", "-2*(y*z - w*x)",
+                                       "-(1 - 2*(x*x + y*y))")):  # the lamp's -Z in world
+        _driver(node.inputs["Lamp Direction"], axis, expression, rotation)
+    for channel in range(3):
+        _driver(node.inputs["Color"], channel, "v", [("v", "PROP", light, f"color[{channel}]")])
+    _driver(node.inputs["Power"], None, "v", [("v", "PROP", light, "energy")])
+    if light.type in ("POINT", "SPOT"):
+        _driver(node.inputs["Radius"], None, "v", [("v", "PROP", light, "shadow_soft_size")])
+    if light.type == "SPOT":
+        _driver(node.inputs["Cos Half Angle"], None, "cos(v / 2)",
+                [("v", "PROP", light, "spot_size")])
+        _driver(node.inputs["Blend"], None, "v", [("v", "PROP", light, "spot_blend")])
+
+
+def _factor_value(b, light, path):
+    node = b._place(b.nodes.new("ShaderNodeValue"))
+    node.label = f"{light.name} {path}"
+    _driver(node.outputs[0], None, "v", [("v", "PROP", light, path)])
+    return node.outputs[0]
+
+
+# --- the material's lamp term ---------------------------------------------------------------
+def lamp_terms(b, image, meta, lamps, diffuse_colour=None):
+    """Add the lamp terms to the material being built by ``b``: returns (glossy,
+    diffuse) colour sockets (diffuse None without ``diffuse_colour``), summed
+    over ``lamps``. ``image``: the bake.separable.pack atlas; ``meta``: its
+    metadata."""
+    size, tile, terms = float(meta["size"]), int(meta["tile"]), int(meta["terms"])
+    height, width = 2 * tile, terms * tile
+    scale = meta["scale"]
+    geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
+    tangent = b._place(b.nodes.new("ShaderNodeTangent"))
+    tangent.direction_type = "RADIAL"
+    tangent.axis = "Z"
+    coords_tree = coords_group(meta["parameterization"])
+    glossy = diffuse = None
+
+    def texel(column, row):
+        node = b._place(b.nodes.new("ShaderNodeTexImage"))
+        node.image = image
+        node.interpolation = "Closest"
+        node.extension = "EXTEND"
+        u = b.math("DIVIDE", b.math("ADD", column, 0.5), float(width))
+        v = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", row, 0.5), float(height)))
+        b.link(b.combine(u, v), node.inputs["Vector"])
+        return node.outputs["Color"]
+
+    def tap(column, row):
+        """Bilinear at continuous atlas texel coordinates from four Closest taps
+        (EEVEE's Linear filtering picks mip levels from the coordinates'
+        screen derivatives: blurred, wrong values for computed lookups)."""
+        x0, y0 = b.math("FLOOR", column), b.math("FLOOR", row)
+        fx, fy = b.math("SUBTRACT", column, x0), b.math("SUBTRACT", row, y0)
+        x1, y1 = b.math("ADD", x0, 1.0), b.math("ADD", y0, 1.0)
+        top = b.mix(fx, texel(x0, y0), texel(x1, y0))
+        bottom = b.mix(fx, texel(x0, y1), texel(x1, y1))
+        return b.mix(fy, top, bottom)
+
+    def multiply(a, c):
+        node = b._place(b.nodes.new("ShaderNodeMix"))
+        node.data_type = "RGBA"
+        node.blend_type = "MULTIPLY"
+        node.inputs["Factor"].default_value = 1.0
+        b.link(a, node.inputs[6])
+        if isinstance(c, (tuple, list)):
+            node.inputs[7].default_value = (*c, 1.0)
+        else:
+            b.link(c, node.inputs[7])
+        return node.outputs[2]
+
+    def add(a, c):
+        if a is None:
+            return c
+        node = b._place(b.nodes.new("ShaderNodeVectorMath"))
+        node.operation = "ADD"
+        b.link(a, node.inputs[0])
+        b.link(c, node.inputs[1])
+        return node.outputs["Vector"]
+
+    for obj in lamps:
+        lamp = b._place(b.nodes.new("ShaderNodeGroup"))
+        lamp.node_tree = lamp_group(obj.data.type)
+        lamp.label = f"Glossy lamp {obj.name}"
+        lamp["glossy_lamp"] = obj.name
+        b.link(geometry.outputs["Position"], lamp.inputs["Position"])
+        drive_lamp_inputs(lamp, obj)
+        coords = b._place(b.nodes.new("ShaderNodeGroup"))
+        coords.node_tree = coords_tree
+        for socket, value in (("Normal", geometry.outputs["Normal"]),
+                              ("Tangent", tangent.outputs["Tangent"]),
+                              ("Incoming", geometry.outputs["Incoming"]),
+                              ("Light", lamp.outputs["Light"]), ("Size", size),
+                              ("Parabolic", 1.0 if meta["map"] == "parabolic" else 0.0)):
+            b.link(value, coords.inputs[socket])
+        total = None
+        for k in range(terms):
+            g = tap(b.math("ADD", coords.outputs["G Column"], 1.0 + k * tile),
+                    b.math("ADD", coords.outputs["G Row"], 1.0))
+            h = tap(b.math("ADD", coords.outputs["H Column"], 1.0 + k * tile),
+                    b.math("ADD", coords.outputs["H Row"], 1.0 + tile))
+            total = add(total, multiply(multiply(g, h), tuple(float(s) for s in scale[k])))
+        weight = b.math("MULTIPLY", coords.outputs["Cos Light"], coords.outputs["Valid"])
+        lit = _colour_scale(b, lamp.outputs["Irradiance"], weight)
+        specular = _factor_value(b, obj.data, "specular_factor")
+        glossy = add(glossy, _colour_scale(b, multiply(total, lit), specular))
+        if diffuse_colour is not None:
+            lambert = tuple(float(c) / math.pi for c in diffuse_colour)
+            lit_diffuse = _colour_scale(b, multiply(lit, lambert),
+                                        _factor_value(b, obj.data, "diffuse_factor"))
+            diffuse = add(diffuse, lit_diffuse)
+    return glossy, diffuse
