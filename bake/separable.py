@@ -482,7 +482,16 @@ def factorize(brdf, parameterization="half-difference", method="svd", terms=1, s
     model = parse(brdf)
     if matrix is None:
         matrix = _Matrix(model, _Grid(parameterization, size, kind))
-    g, h = _decompose(matrix, method, terms, p, progress)
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            g, h = _decompose(matrix, method, terms, p, progress)
+    except np.linalg.LinAlgError as error:
+        raise BakeError(f"the factorization of {model.spec} did not converge ({error})") \
+            from None
+    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(h))):
+        raise BakeError(f"the factorization of {model.spec} did not converge (non-finite "
+                        f"factors: the BRDF has infinite or NaN values in the "
+                        f"{parameterization} parameterization)")
     return Factorization(model.spec, parameterization, method, size, kind, g, h, p)
 
 

@@ -208,3 +208,29 @@ def test_the_command_line_writes_factors_and_the_report(tmp_path):
         assert result.returncode == 2 and says in result.stderr, result.stderr
         assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.exr").exists()
+
+
+@pytest.mark.parametrize("parameterization", separable.PARAMETERIZATIONS)
+@pytest.mark.parametrize("kind", ["xy", "parabolic"])
+def test_the_packed_atlas_reads_back_the_factors_exactly(parameterization, kind):
+    """What a shader reads from the padded atlas (clamped coordinates, one ring
+    of edge or wrapped texels) is Factorization.evaluate's bilinear lookup."""
+    fac = separable.factorize("ggx:roughness=0.5,anisotropy=0.5", parameterization, "svd", 2,
+                              12, kind)
+    image, meta = separable.pack(fac)
+    assert image.shape == (2 * 14, 2 * 14, 3) and meta["tile"] == 14
+    wi, wo = separable.stratified_pairs(400)
+    expected = fac.evaluate(wi, wo)
+    got = separable.atlas_lookup(image, meta, wi, wo)
+    assert np.abs(got - expected).max() <= 1e-6 * np.abs(expected).max()  # float32 scales
+
+
+def test_a_factorization_that_overflows_is_a_clear_error():
+    class Huge(BRDF):
+        name = "test-huge"
+
+        def _f(self, wi, wo):
+            return np.full(wi.shape, 1e300)
+
+    with pytest.raises(BakeError, match="did not converge"):
+        separable.factorize(Huge(), "incident-view", "svd", 1, 8)

@@ -2,9 +2,12 @@
 Glossy bake + attach, then EEVEE with Glossy, Cycles with the true BSDF (two
 seeds) and EEVEE with the true BSDF (native), saved as EXR for the pytest side.
 
-    python lamps_scene.py WORKDIR RESULT.json SPEC [LAMPS] [SIZE] [TERMS] [PARAM]
+    python lamps_scene.py WORKDIR SPEC LAMPS SIZE TERMS PARAM RESULT.json
 
-LAMPS: comma-separated kinds among point, sun, spot, area (default point,sun).
+LAMPS: comma-separated kinds among point, sun, spot, area and textured (a
+point lamp with a texture in its node tree: Glossy must skip it and say so).
+Afterwards: a lamp added after attach (the panel's "changed" flag, picked up
+by re-attach) and an absurd term count (refused before any work).
 """
 
 import json
@@ -12,15 +15,13 @@ import math
 import sys
 from pathlib import Path
 
-workdir, result_path, spec = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
-kinds = (sys.argv[4] if len(sys.argv) > 4 else "point,sun").split(",")
-size = int(sys.argv[5]) if len(sys.argv) > 5 else 64
-terms = int(sys.argv[6]) if len(sys.argv) > 6 else 2
-param = sys.argv[7] if len(sys.argv) > 7 else "half-difference"
+workdir, spec, kinds = Path(sys.argv[1]), sys.argv[2], sys.argv[3].split(",")
+size, terms, param, result_path = int(sys.argv[4]), int(sys.argv[5]), sys.argv[6], \
+    Path(sys.argv[7])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
-from glossy.glossy_addon import scenes, validation  # noqa: E402
+from glossy.glossy_addon import lamps, scenes, validation  # noqa: E402
 
 RESOLUTION = 64
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -48,12 +49,16 @@ LAMPS = {"point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0, "shadow_so
          "spot": ("SPOT", (-2.0, -3.0, 1.0), None, {"energy": 600.0, "shadow_soft_size": 0.0,
                                                     "spot_size": math.radians(30),
                                                     "spot_blend": 0.5}),
-         "area": ("AREA", (1.0, -4.0, -1.0), None, {"energy": 300.0, "size": 0.2})}
+         "area": ("AREA", (1.0, -4.0, -1.0), None, {"energy": 300.0, "size": 0.2}),
+         "textured": ("POINT", (0.0, -3.0, -2.0), None, {"energy": 100.0})}
 for name in kinds:
     kind, location, rotation, values = LAMPS[name]
     light = bpy.data.lights.new(name, kind)
     for key, value in values.items():
         setattr(light, key, value)
+    if name == "textured":
+        light.use_nodes = True
+        light.node_tree.nodes.new("ShaderNodeTexNoise")
     obj = bpy.data.objects.new(name, light)
     obj.location = location
     scene.collection.objects.link(obj)
@@ -81,9 +86,14 @@ truth, why = validation.truth_material(material)
 report = {"truth": why}
 bpy.ops.glossy.bake_materials()
 bpy.ops.glossy.attach_materials()
-report.update({"lamp_error": settings.lamp_error, "lamp_set": settings.lamp_set,
+report.update({"lamp_error": settings.lamp_error, "lamp_set": json.loads(settings.lamp_set),
+               "skipped": json.loads(settings.lamp_skipped),
                "lamp_path": settings.lamp_path, "bake_path": settings.bake_path,
                "groups": sorted(g.name for g in bpy.data.node_groups)})
+
+
+if "textured" in kinds:  # skipped by Glossy (said above); out of the comparison renders
+    bpy.data.objects["textured"].hide_render = True
 
 
 def render(engine, name, samples=1, seed=0):
@@ -111,11 +121,28 @@ if "point" in kinds:
     report["truth_moved"] = None
     if truth is not None:
         sphere.material_slots[0].material = truth
-        report["truth_moved"] = render("CYCLES", "truth_moved", 16)
+        report["truth_moved"] = render("CYCLES", "truth_moved", 64)
         sphere.material_slots[0].material = material
     lamp.location = (2.0, -3.0, 2.5)
 if truth is not None:
     sphere.material_slots[0].material = truth
-    report["cycles"] = [render("CYCLES", f"cycles{seed}", 16, seed) for seed in (1, 2)]
+    report["cycles"] = [render("CYCLES", f"cycles{seed}", 64, seed) for seed in (1, 2)]
     report["native"] = render("EEVEE", "native", 16)
+sphere.material_slots[0].material = material
+report["changed_before"] = lamps.lamp_set_changed(material, scene)
+late = bpy.data.objects.new("late", bpy.data.lights.new("late", "POINT"))
+scene.collection.objects.link(late)
+report["changed_after_adding"] = lamps.lamp_set_changed(material, scene)
+bpy.ops.glossy.attach_materials()
+report["changed_after_reattach"] = lamps.lamp_set_changed(material, scene)
+report["lamp_nodes"] = sorted(n.get("glossy_lamp", "") for n in material.node_tree.nodes
+                              if "glossy_lamp" in n)
+settings.lamp_terms = 0
+before = sorted(p.name for p in (workdir / "glossy").iterdir())
+try:
+    bpy.ops.glossy.bake_materials()
+    report["zero_terms"] = ""
+except RuntimeError as error:
+    report["zero_terms"] = str(error)
+report["files_unchanged"] = before == sorted(p.name for p in (workdir / "glossy").iterdir())
 result_path.write_text(json.dumps(report))

@@ -1,0 +1,60 @@
+"""Glossy materials under Blender's lamps (issue 12): separable BRDF factors lit
+by point, sun, spot and area lamps in EEVEE, against Cycles rendering the true
+BSDF (the independent reference) and against EEVEE's own BSDF (native)."""
+
+import numpy as np
+import pytest
+
+from bake import exr, metrics
+from tests.blender.conftest import run_script
+from tests.conftest import ROOT  # noqa: F401  (the repository on sys.path)
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+
+
+def _image(path):
+    image, _ = exr.read(path)
+    return np.asarray(image, dtype=np.float64)
+
+
+def test_every_lamp_kind_lights_the_factored_brdf_as_cycles_does(tmp_path):
+    r = run_script("lamps_scene.py", tmp_path, "ggx:roughness=0.3", "point,sun,spot,area,textured",
+                   64, 2, "half-difference", tmp_path / "r.json")
+    assert r["truth"] is None
+    assert r["lamp_set"] == [["area", "AREA"], ["point", "POINT"], ["spot", "SPOT"],
+                             ["sun", "SUN"]]
+    assert [name for name, _ in r["skipped"]] == ["textured"]
+    assert "node tree" in r["skipped"][0][1]
+    assert {"Glossy Point Lamp v1", "Glossy Spot Lamp v1", "Glossy Sun Lamp v1",
+            "Glossy Area Lamp v1", "Glossy Separable Half-Difference v1"} <= set(r["groups"])
+    first, second = (_image(p) for p in r["cycles"])
+    mask = first[..., 3] > 0.999  # the sphere's pixels (film transparent)
+    assert mask.sum() > 2000
+    reference = (first[..., :3] + second[..., :3]) / 2
+    noise = metrics.relative_rms(first[..., :3], second[..., :3], mask) / 2
+    glossy = _image(r["glossy"])[..., :3]
+    native = _image(r["native"])[..., :3]
+    glossy_error = metrics.relative_rms(glossy, reference, mask)
+    native_error = metrics.relative_rms(native, reference, mask)
+    print(f"lamps: Glossy {glossy_error:.4f}, native EEVEE {native_error:.4f}, "
+          f"Cycles noise {noise:.4f}, factor error {r['lamp_error']:.3f}")
+    # Isotropic GGX: EEVEE renders it itself; the factored lamps must be within
+    # 2 percentage points of that (the issue's bound), the reference's noise
+    # entering both errors.
+    assert glossy_error <= native_error + 0.02 + noise
+    # Wrong conversions (a missing 4 pi, a spot cone's cosine, an area lamp's
+    # pi) change the image by 30% or more; the highlights sit where Cycles has them.
+    assert abs(metrics.bias(glossy, reference, mask) - 1.0) < 0.05
+    brightest = np.unravel_index(np.argmax(metrics.luminance(glossy) * mask), mask.shape)
+    truth_brightest = np.unravel_index(np.argmax(metrics.luminance(reference) * mask),
+                                       mask.shape)
+    assert np.abs(np.subtract(brightest, truth_brightest)).max() <= 1
+    # The point lamp moved after attach: the drivers follow it (no re-attach).
+    moved = metrics.relative_rms(_image(r["glossy_moved"])[..., :3],
+                                 _image(r["truth_moved"])[..., :3], mask)
+    assert moved <= glossy_error + 0.03 + 2 * noise
+    # Lamp set changes: flagged, picked up by re-attach.
+    assert r["changed_before"] is False and r["changed_after_adding"] is True
+    assert r["changed_after_reattach"] is False and "late" in r["lamp_nodes"]
+    assert "lamp factors: terms must be a whole number in [1, 16], not 0" in r["zero_terms"]
+    assert r["files_unchanged"] is True
