@@ -33,6 +33,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/exr_codec.py
 	$(PY) benchmarks/validate.py
 	$(PY) benchmarks/separable.py
+	$(PY) benchmarks/lamps.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot

@@ -19,7 +19,8 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "lobes": material_settings.lobes if material_settings.method == "3d" else 1,
            "diffuse": [round(c, 6) for c in material_settings.diffuse],
            "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
-                      material_settings.lamp_terms] if material_settings.lamps else None),
+                      material_settings.lamp_terms]
+                     if material_settings.lamps and material_settings.lamp_path else None),
            "probe": probe_key}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -47,11 +48,10 @@ def bake_status(material_settings, probe_path) -> str:
     truncated, rewritten or replaced, judged by its recorded size and time),
     ``stale`` (inputs changed) or ``up to date``."""
     settings = material_settings
-    env_expected = bool(settings.bake_path) or not settings.lamps or \
-        not settings.lamp_path  # lamps-only bakes (anisotropic BRDFs) have no map
+    env_expected = bool(settings.bake_path) or not settings.lamp_path  # lamps-only: no map
     if env_expected and not (settings.bake_path and Path(settings.bake_path).exists()):
         return "missing"
-    if settings.lamps and not (settings.lamp_path and Path(settings.lamp_path).exists()):
+    if settings.lamp_path and not Path(settings.lamp_path).exists():
         return "missing"
     if any(material_settings.diffuse) and not (
             material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):

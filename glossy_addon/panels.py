@@ -86,6 +86,44 @@ class GLOSSY_PT_probe(_Sidebar, bpy.types.Panel):
                 _reason(layout, settings.probe_reason)
 
 
+def _draw_lamps(layout, material, scene):
+    """The lamp factors' settings and what the last bake and attach did with lamps."""
+    import json
+
+    from ..bake import brdf
+    from .lamps import lamp_set_changed, scene_lamps
+
+    settings = material.glossy
+    box = layout.box()
+    box.prop(settings, "lamps")
+    if not settings.lamps:
+        return
+    _props(box, settings, ("lamp_parameterization", "lamp_size", "lamp_terms"))
+    lamps, skipped = scene_lamps(scene)
+    if settings.lamp_path and settings.lamp_error >= 0:
+        box.label(text=f"Factors: {100 * settings.lamp_error:.1f}% BRDF error", icon="TEXTURE")
+    elif lamps:
+        _reason(box, f"The scene has {len(lamps)} lamp(s) and this material no factors: bake "
+                     f"to light it", icon="ERROR")
+    if settings.lamp_set:
+        if lamp_set_changed(material, scene):
+            _reason(box, "The scene's lamps changed since the last attach: attach again",
+                    icon="ERROR")
+        else:
+            names = ", ".join(name for name, _ in json.loads(settings.lamp_set))
+            _reason(box, f"Lit by {names or 'no lamp'} (unshadowed)", icon="LIGHT")
+    for name, reason in skipped:
+        _reason(box, f"{name} skipped: {reason}", icon="ERROR")
+    try:
+        model = brdf.parse(settings.brdf_spec())
+    except Exception:  # a bad spec is reported by the bake
+        return
+    if getattr(model, "name", "") == "ggx" and model.isotropic:
+        _reason(box, "EEVEE renders isotropic GGX under lamps itself; Glossy's material is an "
+                     "emission, so its factors stand in (measured within 2 points of EEVEE's "
+                     "own error against Cycles)", icon="INFO")
+
+
 class GLOSSY_PT_material(bpy.types.Panel):
     bl_label = "Glossy"
     bl_idname = "GLOSSY_PT_material"
@@ -134,6 +172,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
                                 f"bake shows on all of them", icon="ERROR")
         if settings.size_reason:
             _reason(layout, f"Baked at {settings.size_reason}", icon="TEXTURE")
+        _draw_lamps(layout, context.material, context.scene)
         row = layout.row(align=True)
         row.operator("glossy.bake_materials", icon="RENDER_RESULT")
         row.operator("glossy.attach_materials", icon="NODETREE")

@@ -141,10 +141,13 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         folder = output_folder()
         todo, taken = [], set()
         self._warnings = []
+        lamp_objects = scene_lamps(context.scene)[0]
         for material in _materials(obj):
             settings = material.glossy
             check_settings(material)
-            if bake_status(settings, probe_path) == "up to date":
+            wants_lamps = settings.lamps and bool(lamp_objects)
+            if bake_status(settings, probe_path) == "up to date" and \
+                    (settings.lamp_path or not wants_lamps):
                 continue
             stem = f"{bpy.path.clean_name(obj.name)}_{bpy.path.clean_name(material.name)}"
             path = ownership.claim(folder, stem, f"_{settings.method}.exr", material, taken)
@@ -153,15 +156,15 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             if any(settings.diffuse):
                 diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
                 taken.add(diffuse_path)
-            if settings.lamps:
+            if wants_lamps:
                 lamp_path = ownership.claim(folder, stem, "_lamps.exr", material, taken)
                 taken.add(lamp_path)
             if not brdf.parse(settings.brdf_spec()).isotropic:
-                if not settings.lamps:
+                if not wants_lamps:
                     raise BakeError(
                         f"{material.name}: {settings.brdf_spec()} is anisotropic: the "
-                        f"environment map needs an isotropic BRDF; turn on Lamps to bake its "
-                        f"lamp response")
+                        f"environment map needs an isotropic BRDF; add a lamp and turn on Lamps "
+                        f"to bake its lamp response")
                 self._warnings.append(
                     f"{material.name}: anisotropic BRDF: lamps only (Glossy's environment "
                     f"maps need an isotropic BRDF), the environment reflection is left out")
@@ -190,7 +193,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             factors = yield from _scaled(background_steps(_factor_steps(settings)), 0.0,
                                          0.1 if path else 1.0)
         if path is None:
-            return (yield from _write_bake(material, None, None, None, lamp_path, factors,
+            return (yield from _write_bake(material, None, None, None, None, lamp_path, factors,
                                            probe_path, obj_name,
                                            "no environment map (anisotropic BRDF)"))
         layout = meta.get("layout", "cube")

@@ -75,6 +75,7 @@ def scenario():
         material.glossy.roughness = roughness
         material.glossy.map_size = 64
         material.glossy.slices = 16
+        material.glossy.lamps = False  # the environment bake's Esc (the startup scene has a lamp)
         cube.data.materials.append(material)
     materials = list(cube.data.materials)
     bpy.context.view_layer.objects.active = cube
@@ -100,6 +101,7 @@ def scenario():
     big.glossy.size_mode = "FIXED"
     big.glossy.map_size = 256
     big.glossy.slices = 32  # about 10 parts of a few tenths of a second each
+    big.glossy.lamps = False
     cube.data.materials.clear()
     cube.data.materials.append(big)
     started = time.monotonic()
