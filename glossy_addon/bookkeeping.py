@@ -19,6 +19,7 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "lobes": material_settings.lobes if material_settings.method == "3d" else 1,
            "diffuse": [round(c, 6) for c in material_settings.diffuse],
            "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
+                      material_settings.lamp_size_h, material_settings.lamp_method,
                       material_settings.lamp_terms]
                      if material_settings.lamps and material_settings.lamp_path else None),
            "probe": probe_key}

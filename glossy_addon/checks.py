@@ -59,6 +59,7 @@ def check_settings(material) -> None:
     if settings.lamps:
         try:
             separable.check_arguments(settings.lamp_size, settings.lamp_terms,
-                                      settings.lamp_parameterization, "xy", "svd", 2.0)
+                                      settings.lamp_parameterization, "xy",
+                                      settings.lamp_method, 2.0, settings.lamp_size_h)
         except BakeError as error:
             raise BakeError(f"{material.name}: lamp factors: {error}") from None

@@ -194,14 +194,15 @@ def coords_group(parameterization):
     surface."""
     name = f"Glossy Separable {parameterization.title()} v{GROUP_VERSION}"
     tree = _group(name, [("Normal", VECTOR), ("Tangent", VECTOR), ("Incoming", VECTOR),
-                         ("Light", VECTOR), ("Size", FLOAT), ("Parabolic", FLOAT)],
+                         ("Light", VECTOR), ("Size", FLOAT), ("H Size", FLOAT),
+                         ("Parabolic", FLOAT)],
                   [("G Column", FLOAT), ("G Row", FLOAT), ("H Column", FLOAT), ("H Row", FLOAT),
                    ("Cos Light", FLOAT), ("Valid", FLOAT)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
     i, o = _io(tree)
-    size, parabolic = i["Size"], i["Parabolic"]
+    size, size_h, parabolic = i["Size"], i["H Size"], i["Parabolic"]
     normal = b.vec("NORMALIZE", i["Normal"])
     y_axis = b.vec("NORMALIZE", b.vec("CROSS_PRODUCT", normal, i["Tangent"]))
     x_axis = b.vec("CROSS_PRODUCT", y_axis, normal)
@@ -209,14 +210,14 @@ def coords_group(parameterization):
     wo = _local(b, b.vec("NORMALIZE", i["Incoming"]), x_axis, y_axis, normal)
     if parameterization == "incident-view":
         g = _hemisphere_texel(b, *wi, size, parabolic)
-        h = _hemisphere_texel(b, *wo, size, parabolic)
+        h = _hemisphere_texel(b, *wo, size_h, parabolic)
     elif parameterization == "elevation-azimuth":
         theta_i = b.math("ARCCOSINE", b.math("MINIMUM", b.math("MAXIMUM", wi[2], -1.0), 1.0))
         theta_o = b.math("ARCCOSINE", b.math("MINIMUM", b.math("MAXIMUM", wo[2], -1.0), 1.0))
         g = (_angle_texel(b, theta_o, math.pi / 2, size), _angle_texel(b, theta_i, math.pi / 2,
                                                                        size))
-        h = (_angle_texel(b, _azimuth(b, wo[0], wo[1]), 2 * math.pi, size),
-             _angle_texel(b, _azimuth(b, wi[0], wi[1]), 2 * math.pi, size))
+        h = (_angle_texel(b, _azimuth(b, wo[0], wo[1]), 2 * math.pi, size_h),
+             _angle_texel(b, _azimuth(b, wi[0], wi[1]), 2 * math.pi, size_h))
     else:
         wi_v, wo_v = b.combine(*wi), b.combine(*wo)
         half = b.vec("NORMALIZE", b.vec("ADD", wi_v, wo_v))
@@ -237,7 +238,7 @@ def coords_group(parameterization):
             yp = b.vec("CROSS_PRODUCT", half, xp)
             dx, dy, dz = (b.vec("DOT_PRODUCT", wo_v, xp), b.vec("DOT_PRODUCT", wo_v, yp),
                           b.vec("DOT_PRODUCT", wo_v, half))
-        h = _hemisphere_texel(b, dx, dy, dz, size, parabolic)
+        h = _hemisphere_texel(b, dx, dy, dz, size_h, parabolic)
     for name_, value in zip(("G Column", "G Row", "H Column", "H Row"), (*g, *h), strict=True):
         b.link(value, o[name_])
     b.link(b.math("MAXIMUM", wi[2], 0.0), o["Cos Light"])
@@ -309,8 +310,10 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None):
     diffuse) colour sockets (diffuse None without ``diffuse_colour``), summed
     over ``lamps``. ``image``: the bake.separable.pack atlas; ``meta``: its
     metadata."""
-    size, tile, terms = float(meta["size"]), int(meta["tile"]), int(meta["terms"])
-    height, width = 2 * tile, terms * tile
+    size, terms = float(meta["size"]), int(meta["terms"])
+    size_h = float(meta.get("size_h", meta["size"]))
+    tile_g, tile_h = int(meta["tile_g"]), int(meta["tile_h"])
+    height, width = tile_g + tile_h, terms * max(tile_g, tile_h)
     scale = meta["scale"]
     geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
     tangent = b._place(b.nodes.new("ShaderNodeTangent"))
@@ -374,14 +377,15 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None):
                               ("Tangent", tangent.outputs["Tangent"]),
                               ("Incoming", geometry.outputs["Incoming"]),
                               ("Light", lamp.outputs["Light"]), ("Size", size),
+                              ("H Size", size_h),
                               ("Parabolic", 1.0 if meta["map"] == "parabolic" else 0.0)):
             b.link(value, coords.inputs[socket])
         total = None
         for k in range(terms):
-            g = tap(b.math("ADD", coords.outputs["G Column"], 1.0 + k * tile),
+            g = tap(b.math("ADD", coords.outputs["G Column"], 1.0 + k * tile_g),
                     b.math("ADD", coords.outputs["G Row"], 1.0))
-            h = tap(b.math("ADD", coords.outputs["H Column"], 1.0 + k * tile),
-                    b.math("ADD", coords.outputs["H Row"], 1.0 + tile))
+            h = tap(b.math("ADD", coords.outputs["H Column"], 1.0 + k * tile_h),
+                    b.math("ADD", coords.outputs["H Row"], 1.0 + tile_g))
             total = add(total, multiply(multiply(g, h), tuple(float(s) for s in scale[k])))
         weight = b.math("MULTIPLY", coords.outputs["Cos Light"], coords.outputs["Valid"])
         lit = _colour_scale(b, lamp.outputs["Irradiance"], weight)

@@ -98,7 +98,8 @@ def _draw_lamps(layout, material, scene):
     box.prop(settings, "lamps")
     if not settings.lamps:
         return
-    _props(box, settings, ("lamp_parameterization", "lamp_size", "lamp_terms"))
+    _props(box, settings, ("lamp_parameterization", "lamp_method", "lamp_size", "lamp_size_h",
+                           "lamp_terms"))
     lamps, skipped = scene_lamps(scene)
     if settings.lamp_path and settings.lamp_error >= 0:
         box.label(text=f"Factors: {100 * settings.lamp_error:.1f}% BRDF error", icon="TEXTURE")

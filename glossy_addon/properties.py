@@ -183,12 +183,20 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
                 "(phi_i, phi_o): velvet-like BRDFs")],
         default="half-difference")
     lamp_size: bpy.props.IntProperty(
-        name="Factor Size", description="Texels per side of each factor texture (narrow lobes "
-        "need more; the factoring time grows with its fourth power)", default=64, min=0,
-        max=1024)
+        name="Factor Size", description="Texels per side of the g factors (the half vector: "
+        "narrow lobes need more)", default=256, min=0, max=1024)
+    lamp_size_h: bpy.props.IntProperty(
+        name="Second Size", description="Texels per side of the h factors (smooth in the "
+        "half-vector parameterizations)", default=32, min=0, max=1024)
+    lamp_method: bpy.props.EnumProperty(
+        name="Method", description="How the BRDF is factored (bake.separable)",
+        items=[("sampled", "Sampled Fit", "Weighted least squares from sampled rows and "
+                "columns: fine g textures in seconds"),
+               ("svd", "Truncated SVD", "The whole matrix (g and h of one size: slow above 64)"),
+               ("nd", "Normalized", "The paper's normalized decomposition (whole matrix)")],
+        default="sampled")
     lamp_terms: bpy.props.IntProperty(
-        name="Terms", description="Pairs of factor textures (truncated SVD)", default=2, min=0,
-        max=64)
+        name="Terms", description="Pairs of factor textures", default=2, min=0, max=64)
     lamp_path: bpy.props.StringProperty(name="Baked Factors", subtype="FILE_PATH")
     lamp_error: bpy.props.FloatProperty(
         name="Factor Error", description="Cosine-weighted relative RMS error of the factored "

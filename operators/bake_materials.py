@@ -33,9 +33,12 @@ def _scaled(steps, start, stop):
 def _factor_steps(settings):
     """The material's BRDF factored for lamps (bake.separable), as steps: one
     (fraction, message) before the work, the Factorization as the value."""
-    yield 0.0, f"factoring the BRDF for lamps ({settings.lamp_size}^2 x {settings.lamp_terms})"
-    return separable.factorize(settings.brdf_spec(), settings.lamp_parameterization, "svd",
-                               settings.lamp_terms, settings.lamp_size, "xy")
+    yield 0.0, (f"factoring the BRDF for lamps ({settings.lamp_size}^2 and "
+                f"{settings.lamp_size_h}^2 x {settings.lamp_terms})")
+    size_h = settings.lamp_size_h if settings.lamp_method == "sampled" else None
+    return separable.factorize(settings.brdf_spec(), settings.lamp_parameterization,
+                               settings.lamp_method, settings.lamp_terms, settings.lamp_size,
+                               "xy", size_h=size_h)
 
 
 def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,

@@ -195,7 +195,7 @@ def test_the_command_line_writes_factors_and_the_report(tmp_path):
     assert result.returncode == 0, result.stderr
     table = [line for line in result.stdout.splitlines() if line.split()[:1] and
              line.split()[0] in separable.PARAMETERIZATIONS]
-    assert len(table) == 4 * 2 * 2  # parameterizations x methods x sizes
+    assert len(table) == 4 * len(separable.METHODS) * 2  # parameterizations x methods x sizes
     assert "best at 16^2" in result.stdout
     assert (tmp_path / "fig_terms.png").stat().st_size > 1000
     assert (tmp_path / "fig_sizes.png").stat().st_size > 1000
@@ -212,13 +212,16 @@ def test_the_command_line_writes_factors_and_the_report(tmp_path):
 
 @pytest.mark.parametrize("parameterization", separable.PARAMETERIZATIONS)
 @pytest.mark.parametrize("kind", ["xy", "parabolic"])
-def test_the_packed_atlas_reads_back_the_factors_exactly(parameterization, kind):
+@pytest.mark.parametrize("method, size_h", [("svd", 12), ("sampled", 6)])
+def test_the_packed_atlas_reads_back_the_factors_exactly(parameterization, kind, method,
+                                                         size_h):
     """What a shader reads from the padded atlas (clamped coordinates, one ring
     of edge or wrapped texels) is Factorization.evaluate's bilinear lookup."""
-    fac = separable.factorize("ggx:roughness=0.5,anisotropy=0.5", parameterization, "svd", 2,
-                              12, kind)
+    fac = separable.factorize("ggx:roughness=0.5,anisotropy=0.5", parameterization, method, 2,
+                              12, kind, size_h=size_h)
     image, meta = separable.pack(fac)
-    assert image.shape == (2 * 14, 2 * 14, 3) and meta["tile"] == 14
+    assert image.shape == (14 + size_h + 2, 2 * 14, 3)
+    assert (meta["tile_g"], meta["tile_h"]) == (14, size_h + 2)
     wi, wo = separable.stratified_pairs(400)
     expected = fac.evaluate(wi, wo)
     got = separable.atlas_lookup(image, meta, wi, wo)

@@ -19,7 +19,7 @@ def _image(path):
 
 def test_every_lamp_kind_lights_the_factored_brdf_as_cycles_does(tmp_path):
     r = run_script("lamps_scene.py", tmp_path, "ggx:roughness=0.3", "point,sun,spot,area,textured",
-                   64, 2, "half-difference", tmp_path / "r.json")
+                   256, 2, "half-difference", tmp_path / "r.json")
     assert r["truth"] is None
     assert r["lamp_set"] == [["area", "AREA"], ["point", "POINT"], ["spot", "SPOT"],
                              ["sun", "SUN"]]
@@ -58,3 +58,35 @@ def test_every_lamp_kind_lights_the_factored_brdf_as_cycles_does(tmp_path):
     assert r["changed_after_reattach"] is False and "late" in r["lamp_nodes"]
     assert "lamp factors: terms must be a whole number in [1, 16], not 0" in r["zero_terms"]
     assert r["files_unchanged"] is True
+    # The NumPy reference the Ward case uses (BRDF library, the lamp conversions
+    # written out in the script) agrees with Cycles here, where Cycles has the BSDF.
+    truth = _image(r["numpy_truth"])[..., :3]
+    assert metrics.relative_rms(truth, reference, mask) <= 0.02 + 2 * noise
+
+
+def _errors(r, against_cycles):
+    glossy = _image(r["glossy"])
+    mask = glossy[..., 3] > 0.999
+    if against_cycles:
+        first, second = (_image(p)[..., :3] for p in r["cycles"])
+        reference = (first + second) / 2
+    else:
+        reference = _image(r["numpy_truth"])[..., :3]
+    return (metrics.relative_rms(glossy[..., :3], reference, mask),
+            metrics.relative_rms(_image(r["native"])[..., :3], reference, mask))
+
+
+@pytest.mark.parametrize("spec, against_cycles", [
+    ("ggx:roughness=0.3,anisotropy=0.8", True),  # Cycles renders it; EEVEE as isotropic
+    ("ward:ax=0.21,ay=0.048,ks=0.3,kd=1/0/0", False),  # the paper's Figure 10: no Cycles BSDF
+])
+def test_anisotropic_brdfs_under_lamps_beat_native_eevee_by_half(tmp_path, spec,
+                                                                 against_cycles):
+    """The issue's bound: at most half of native EEVEE's error, which renders
+    anisotropic GGX as isotropic (native Ward: Blender's nearest anisotropic GGX
+    with a diffuse part). Measured: 7.5% vs 110% (GGX), 8.7% vs 65% (Ward)."""
+    r = run_script("lamps_scene.py", tmp_path, spec, "point,sun", 256, 2, "half-difference",
+                   tmp_path / "r.json")
+    glossy, native = _errors(r, against_cycles)
+    print(f"{spec}: Glossy {glossy:.4f}, native {native:.4f}")
+    assert glossy <= native / 2

@@ -112,6 +112,58 @@ def render(engine, name, samples=1, seed=0):
     return str(path)
 
 
+def numpy_truth(path):
+    """f cos(theta_i) E per pixel from the BRDF library and the lamp conversions
+    measured against Cycles (written out here, independently of the node groups),
+    at the pixel centres' hits on the mesh with Cycles' smooth normals."""
+    import numpy as np
+    from glossy.bake import exr
+    from glossy.bake.brdf import parse
+
+    index, points, normals = validation.pixel_geometry(scene, camera, RESOLUTION, RESOLUTION,
+                                                       [sphere])
+    _, directions = validation.camera_rays(scene, camera, RESOLUTION, RESOLUTION)
+    view = -directions
+    tangent = np.stack([-points[..., 1], points[..., 0], 0 * points[..., 0]], -1)
+    y_axis = np.cross(normals, tangent)
+    y_axis /= np.maximum(np.linalg.norm(y_axis, axis=-1, keepdims=True), 1e-12)
+    x_axis = np.cross(y_axis, normals)
+
+    def local(w):
+        return np.stack([np.sum(w * x_axis, -1), np.sum(w * y_axis, -1),
+                         np.sum(w * normals, -1)], -1)
+
+    model = parse(spec)
+    total = np.zeros(points.shape)
+    for obj in lamps.scene_lamps(scene)[0]:
+        light = obj.data
+        matrix = np.array(obj.matrix_world)
+        aim = -matrix[:3, 2] / np.linalg.norm(matrix[:3, 2])
+        offset = matrix[:3, 3] - points
+        distance2 = np.sum(offset * offset, -1, keepdims=True)
+        to_lamp = offset / np.sqrt(distance2)
+        if light.type == "SUN":
+            to_lamp, irradiance = np.broadcast_to(-aim, points.shape), light.energy
+        elif light.type == "AREA":
+            irradiance = light.energy * np.maximum(-to_lamp @ aim, 0)[..., None] / (
+                math.pi * distance2)
+        else:
+            irradiance = light.energy / (4 * math.pi * (distance2 + light.shadow_soft_size ** 2))
+            if light.type == "SPOT":
+                half = math.cos(light.spot_size / 2)
+                x = np.clip((-to_lamp @ aim - half) / max((1 - half) * light.spot_blend, 1e-9),
+                            0, 1)[..., None]
+                irradiance = irradiance * x * x * (3 - 2 * x)
+        wi, wo = local(to_lamp), local(view)
+        total += model.f(wi, wo) * np.maximum(wi[..., 2:], 0) * irradiance * \
+            np.array(light.color) * light.specular_factor
+    mask = (index == 1).astype(np.float32)[..., None]
+    exr.write(path, np.concatenate([total * mask, mask], -1).astype(np.float32))
+    return str(path)
+
+
+scenes.float_exr_output(scene, RESOLUTION)  # the camera rays need the render size
+report["numpy_truth"] = numpy_truth(workdir / "numpy_truth.exr")
 report["glossy"] = render("EEVEE", "glossy")
 # Move the point lamp: the drivers follow it without a re-attach.
 if "point" in kinds:
@@ -127,6 +179,30 @@ if "point" in kinds:
 if truth is not None:
     sphere.material_slots[0].material = truth
     report["cycles"] = [render("CYCLES", f"cycles{seed}", 64, seed) for seed in (1, 2)]
+    report["native"] = render("EEVEE", "native", 16)
+elif spec.startswith("ward:"):  # what a user has natively: Blender's nearest GGX + diffuse
+    from glossy.bake.brdf import parse
+    ward = parse(spec)
+    ax, ay = ward.ax, ward.ay
+    alpha = math.sqrt(ax * ay)
+    stand_in = bpy.data.materials.new("Ward stand-in")
+    tree = stand_in.node_tree
+    tree.nodes.clear()
+    glossy_node = tree.nodes.new("ShaderNodeBsdfAnisotropic")
+    glossy_node.distribution = "GGX"
+    glossy_node.inputs["Roughness"].default_value = math.sqrt(alpha)
+    # A < 0: ax = alpha / (1 + A), ay = alpha (1 + A) (CYCLES.md), and the reverse.
+    glossy_node.inputs["Anisotropy"].default_value = (ay / alpha - 1) if ax >= ay else \
+        (1 - ax / alpha)
+    glossy_node.inputs["Color"].default_value = (*ward.params["ks"], 1.0)
+    diffuse_node = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse_node.inputs["Color"].default_value = (*ward.params["kd"], 1.0)
+    add = tree.nodes.new("ShaderNodeAddShader")
+    tree.links.new(glossy_node.outputs[0], add.inputs[0])
+    tree.links.new(diffuse_node.outputs[0], add.inputs[1])
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(add.outputs[0], output.inputs["Surface"])
+    sphere.material_slots[0].material = stand_in
     report["native"] = render("EEVEE", "native", 16)
 sphere.material_slots[0].material = material
 report["changed_before"] = lamps.lamp_set_changed(material, scene)
