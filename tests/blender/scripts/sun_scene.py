@@ -16,9 +16,9 @@ import _checkout  # noqa: F401  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np  # noqa: E402
-from mathutils import Vector  # noqa: E402
 from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon import scenes, validation  # noqa: E402
+from mathutils import Vector  # noqa: E402
 
 workdir, hdri, result_path = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 SIZE = 96
