@@ -330,7 +330,8 @@ def cmd_factorize(args):
         for name in ("terms", "sizes"):
             outputs.check_target(f"{args.plots}_{name}.png", ".png", what="--plots")
     for size in [args.size] + (args.sizes if args.report else []):
-        separable.check_arguments(size, args.terms, args.param, args.map, args.method, args.p)
+        separable.check_arguments(size, args.terms, args.param, args.map, args.method, args.p,
+                                  args.size_h)
     if not 2 <= args.strata <= 400:
         raise BakeError(f"--strata must be in [2, 400], not {args.strata}")
     model = brdf.parse(args.brdf)
@@ -343,9 +344,14 @@ def cmd_factorize(args):
                 print(f"wrote {path}")
     if output:
         fac = separable.factorize(model, args.param, args.method, args.terms, args.size,
-                                  args.map, args.p, progress=progress)
-        exr.write(output, fac.layers(), fac.meta())
-        print(f"wrote {output} ({fac.terms} term(s) of {args.size}^2 {args.map} maps, "
+                                  args.map, args.p, progress=progress, size_h=args.size_h)
+        if fac.size_h == fac.size:
+            exr.write(output, fac.layers(), fac.meta())
+        else:  # layers of two sizes: one EXR part each (exr.read_parts reads them)
+            exr.write_parts(output, fac.layers(), fac.meta())
+        sizes = f"{args.size}^2" if fac.size_h == fac.size else \
+            f"{args.size}^2 and {fac.size_h}^2"
+        print(f"wrote {output} ({fac.terms} term(s) of {sizes} {args.map} maps, "
               f"{args.param}, {args.method.upper()}; error "
               f"{separable.error(fac, model):.4f})")
 
@@ -493,9 +499,12 @@ def _build_parser():
     p.add_argument("--brdf", required=True, help="BRDF spec (any of bake.brdf)")
     p.add_argument("--param", default="half-difference", choices=PARAMETERIZATIONS,
                    help="parameterization (default half-difference)")
-    p.add_argument("--method", default="svd", choices=METHODS, help="truncated SVD or ND")
+    p.add_argument("--method", default="svd", choices=METHODS,
+                   help="truncated SVD, ND, or the sampled fit (never the whole matrix)")
     p.add_argument("--terms", type=int, default=1, help="pairs of textures (1-16)")
     p.add_argument("--size", type=int, default=64, help="texels per side (4-256)")
+    p.add_argument("--size-h", type=int, default=None,
+                   help="texels per side of the h factors (default: --size)")
     p.add_argument("--map", default="xy", choices=MAPS, help="hemisphere map: xy or parabolic")
     p.add_argument("--p", type=float, default=2.0, help="ND: the p of the column p-norms")
     p.add_argument("--report", action="store_true",

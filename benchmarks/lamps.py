@@ -39,7 +39,7 @@ def _image(path):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--lamps", default="point,sun")
-    parser.add_argument("--size", type=int, default=64)
+    parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--terms", type=int, default=2)
     parser.add_argument("--param", default="half-difference")
     args = parser.parse_args()

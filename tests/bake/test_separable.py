@@ -237,3 +237,36 @@ def test_a_factorization_that_overflows_is_a_clear_error():
 
     with pytest.raises(BakeError, match="did not converge"):
         separable.factorize(Huge(), "incident-view", "svd", 1, 8)
+
+
+@pytest.mark.parametrize("size_h", [8, 16])
+def test_the_sampled_fit_recovers_a_separable_brdf_with_h_of_its_own_size(size_h):
+    """a(h) b(d) is rank one: the sampled fit (rows against a sub-grid of the
+    columns and back) reproduces it at texel centres of g (16^2) and h."""
+    model = _HalfTimesDifference()
+    fac = separable.factorize(model, "half-difference", "sampled", 1, 16, size_h=size_h)
+    assert fac.g.shape == (1, 16, 16, 3) and fac.h.shape == (1, size_h, size_h, 3)
+
+    def inside(n):  # texel centres not on the clamped rim
+        centres = separable._texel_centres(n)
+        radius = np.hypot(*np.meshgrid(centres, centres, indexing="ij")).ravel()
+        return np.flatnonzero(radius < 1.0 - 1.0 / n)
+
+    wi, wo = fac.grid.pairs(fac.grid.u[inside(16)[::3]], fac.grid.v[inside(size_h)])
+    keep = (wi[..., 2] > 1e-3) & (wo[..., 2] > 1e-3)
+    truth, approx = model.f(wi[keep], wo[keep]), fac.evaluate(wi[keep], wo[keep])
+    assert np.abs(approx - truth).max() <= 1e-5 * np.abs(truth).max()
+
+
+def test_the_command_line_writes_factors_of_two_sizes(tmp_path):
+    from bake import exr
+    from tests.bake.test_cli import run_bake
+
+    out = tmp_path / "f.exr"
+    result = run_bake("factorize", "--brdf", "ggx:roughness=0.3,anisotropy=0.8", "--size", "32",
+                      "--size-h", "8", "--terms", "2", "--method", "sampled", "-q", "-o", out)
+    assert result.returncode == 0, result.stderr
+    parts, meta = exr.read_parts(out)
+    assert {k: v.shape[:2] for k, v in parts.items()} == {
+        "g0": (32, 32), "g1": (32, 32), "h0": (8, 8), "h1": (8, 8)}
+    assert meta["size_h"] == 8 and meta["method"] == "sampled"
