@@ -30,15 +30,31 @@ def _scaled(steps, start, stop):
         yield start + (stop - start) * fraction, message
 
 
+#: Factorizations of this session by (spec, parameterization, method, terms,
+#: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
+#: materials sharing a BRDF reuse them (at most _FACTOR_CACHE_SIZE, oldest dropped).
+_FACTOR_CACHE = {}
+_FACTOR_CACHE_SIZE = 16
+
+
 def _factor_steps(settings):
     """The material's BRDF factored for lamps (bake.separable), as steps: one
     (fraction, message) before the work, the Factorization as the value."""
+    size_h = settings.lamp_size_h if settings.lamp_method == "sampled" else None
+    key = (brdf.parse(settings.brdf_spec()).spec, settings.lamp_parameterization,
+           settings.lamp_method, settings.lamp_terms, settings.lamp_size, size_h)
+    if key in _FACTOR_CACHE:
+        yield 1.0, "lamp factors: reused from this session"
+        return _FACTOR_CACHE[key]
     yield 0.0, (f"factoring the BRDF for lamps ({settings.lamp_size}^2 and "
                 f"{settings.lamp_size_h}^2 x {settings.lamp_terms})")
-    size_h = settings.lamp_size_h if settings.lamp_method == "sampled" else None
-    return separable.factorize(settings.brdf_spec(), settings.lamp_parameterization,
-                               settings.lamp_method, settings.lamp_terms, settings.lamp_size,
-                               "xy", size_h=size_h)
+    factors = separable.factorize(key[0], settings.lamp_parameterization,
+                                  settings.lamp_method, settings.lamp_terms, settings.lamp_size,
+                                  "xy", size_h=size_h)
+    while len(_FACTOR_CACHE) >= _FACTOR_CACHE_SIZE:
+        _FACTOR_CACHE.pop(next(iter(_FACTOR_CACHE)))
+    _FACTOR_CACHE[key] = factors
+    return factors
 
 
 def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,
