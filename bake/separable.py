@@ -312,8 +312,9 @@ class _Filled:
                 yield start, block
                 continue
             g, h = self.fill
-            guess = g[:, start:start + block.shape[1]] @ h.transpose(0, 2, 1)
-            yield start, np.where(valid[None], block, guess.astype(np.float32))
+            guess = g[:, start:start + block.shape[1]].astype(np.float32) @ \
+                h.transpose(0, 2, 1).astype(np.float32)  # sgemm, like the matrix itself
+            yield start, np.where(valid[None], block, guess)
 
 
 # --- decompositions ------------------------------------------------------------------
@@ -334,29 +335,39 @@ def _nd(matrix, terms, p, progress):
     g = np.zeros((3, matrix.rows, 0))
     h = np.zeros((3, matrix.cols, 0))
     channels = np.arange(3)
+    def residual(block, start):
+        # The first term works on the float32 matrix itself (sums in float64).
+        return block if not g.shape[2] else _residual(block.astype(np.float64), start, g, h)
+
     for k in range(terms):
         norms = np.zeros((3, matrix.cols))
+        lowest = np.inf
         for start, block in matrix.blocks():
-            norms += np.sum(np.abs(_residual(block.astype(np.float64), start, g, h)) ** p,
-                            axis=1)
+            r = residual(block, start)
+            norms += np.sum(r * r if p == 2 else np.abs(r) ** p, axis=1, dtype=np.float64)
+            lowest = min(lowest, float(r.min()))
         column = norms ** (1.0 / p)
-        strongest = np.argmax(column, axis=1)
-        reference = np.zeros((3, matrix.rows))
-        dots = np.zeros((3, matrix.cols))
-        for start, block in matrix.blocks():
-            r = _residual(block.astype(np.float64), start, g, h)
-            reference[:, start:start + r.shape[1]] = r[channels, :, strongest]
-        for start, block in matrix.blocks():
-            r = _residual(block.astype(np.float64), start, g, h)
-            dots += np.einsum("cu,cuv->cv", reference[:, start:start + r.shape[1]], r)
-        sign = np.where(dots < 0, -1.0, 1.0)
+        if lowest >= 0.0:  # no negative entry: every column agrees with every other
+            sign = np.ones((3, matrix.cols))
+        else:
+            strongest = np.argmax(column, axis=1)
+            reference = np.zeros((3, matrix.rows))
+            dots = np.zeros((3, matrix.cols))
+            for start, block in matrix.blocks():
+                r = residual(block, start)
+                reference[:, start:start + r.shape[1]] = r[channels, :, strongest]
+            for start, block in matrix.blocks():
+                r = residual(block, start)
+                dots += np.einsum("cu,cuv->cv", reference[:, start:start + r.shape[1]], r)
+            sign = np.where(dots < 0, -1.0, 1.0)
         usable = column > 1e-12 * max(float(column.max()), 1e-300)
         safe = np.where(usable, column, 1.0) * sign
         row = np.zeros((3, matrix.rows))
+        inverse = np.where(usable, 1.0 / safe, 0.0)
         for start, block in matrix.blocks():
-            r = _residual(block.astype(np.float64), start, g, h)
-            row[:, start:start + r.shape[1]] = np.sum(
-                np.where(usable[:, None], r / safe[:, None], 0.0), axis=2) / \
+            r = residual(block, start)
+            row[:, start:start + r.shape[1]] = np.einsum(
+                "cuv,cv->cu", r, inverse.astype(r.dtype), dtype=np.float64) / \
                 np.maximum(usable.sum(1), 1)[:, None]
         g = np.concatenate([g, row[..., None]], axis=2)
         h = np.concatenate([h, np.where(usable, safe, 0.0)[..., None]], axis=2)
@@ -567,7 +578,9 @@ def _als(matrix, g, h, rounds, tolerance, progress):
                     a = (weight[None] @ outer).reshape(3, -1, terms, terms).astype(np.float64)
                     rhs = (observed @ h_cast).astype(np.float64)
                     ridge = _ridge(a)
-                    g[:, rows] = np.linalg.solve(a + ridge * eye, rhs[..., None])[..., 0]
+                    system = (a + ridge * eye).reshape(-1, terms, terms)
+                    g[:, rows] = _solve_small(system, rhs.reshape(-1, terms)).reshape(
+                        rhs.shape)
                 else:
                     rows = slice(start, start + block.shape[1])
                     g_cast = g[:, rows].astype(dtype)
@@ -577,7 +590,8 @@ def _als(matrix, g, h, rounds, tolerance, progress):
             if side == "h":
                 a = normal.reshape(3, count, terms, terms)
                 ridge = _ridge(a)
-                h = np.linalg.solve(a + ridge * eye, right[..., None])[..., 0]
+                h = _solve_small((a + ridge * eye).reshape(-1, terms, terms),
+                                 right.reshape(-1, terms)).reshape(right.shape)
         both_g = np.concatenate([g, previous[0]], axis=2)
         both_h = np.concatenate([h, -previous[1]], axis=2)
         change = _product_norm(both_g, both_h) / max(_product_norm(g, h), 1e-300)
@@ -614,7 +628,8 @@ def _decompose(matrix, method, terms, p, progress):
         if method == "svd":
             return _svd(matrix, terms, progress)
         return _nd(matrix, terms, p, progress)
-    g, h = _svd(matrix, terms, None)
+    # The ND's fill only starts the weighted fit: one subspace iteration will do.
+    g, h = _svd(matrix, terms, None, iterations=4 if method == "svd" else 1)
     rounds = ALS_ROUNDS if method == "svd" else ND_FILL_ROUNDS
     g, h = _als(matrix, g, h, rounds, ALS_TOLERANCE, None if method == "nd" else progress)
     if method == "svd":
