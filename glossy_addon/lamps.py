@@ -7,8 +7,9 @@ convention: Y = normalize(n x T), X = Y x n, T = the Tangent node, radial
 about the object's Z, which is what Cycles' Glossy BSDF uses unconnected).
 
 E is the irradiance a surface facing the lamp receives, converted as Cycles
-5.0 does (measured with a white Lambert plane under each lamp; see
-tests/blender/test_lamps.py):
+5.0 does (measured with a white Lambert plane under each lamp, Cycles at 256
+samples; tests/blender/test_lamps.py checks the four kinds together against
+Cycles renders of the true BSDF):
 
 - point, power P, radius r at distance d: E = P / (4 pi (d^2 + r^2))
   (Cycles treats the sphere as a disc facing the point);
