@@ -64,6 +64,19 @@ def build(scenes_module, hdri, probe_resolution=32):
     return sphere, torus
 
 
+def capture_bake_attach(objects):
+    """What a user does next: capture probes for the selection, then bake and
+    attach each object's materials; returns the operators' results by name."""
+    report = {"capture": sorted(bpy.ops.glossy.capture_probes())}
+    for obj in objects:
+        bpy.ops.object.select_all(action="DESELECT")
+        obj.select_set(True)
+        bpy.context.view_layer.objects.active = obj
+        report[obj.name] = [sorted(bpy.ops.glossy.bake_materials()),
+                            sorted(bpy.ops.glossy.attach_materials())]
+    return report
+
+
 def _emission_material(name, color=None, encode_normal=False):
     material = bpy.data.materials.new(name)
     material.use_nodes = True

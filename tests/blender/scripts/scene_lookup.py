@@ -26,13 +26,7 @@ glossy.register()
 sphere, torus = _acceptance_scene.build(scenes, hdri)
 bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
 
-report = {"capture": sorted(bpy.ops.glossy.capture_probes())}
-for obj in (sphere, torus):
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    report[obj.name] = [sorted(bpy.ops.glossy.bake_materials()),
-                        sorted(bpy.ops.glossy.attach_materials())]
+report = _acceptance_scene.capture_bake_attach((sphere, torus))
 report["views"] = _acceptance_scene.render_views(workdir)
 with open(result_path, "w") as handle:
     json.dump(report, handle, indent=1)

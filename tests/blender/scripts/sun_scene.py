@@ -32,13 +32,8 @@ sun.rotation_euler = Vector((0.25, 0.9, -0.6)).to_track_quat("-Z", "Y").to_euler
 bpy.context.scene.collection.objects.link(sun)
 scene = bpy.context.scene
 bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
-report = {"capture": sorted(bpy.ops.glossy.capture_probes())}
+report = _acceptance_scene.capture_bake_attach((sphere, torus))
 for obj in (sphere, torus):
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    report[obj.name] = [sorted(bpy.ops.glossy.bake_materials()),
-                        sorted(bpy.ops.glossy.attach_materials())]
     report[obj.name + "_lamps"] = json.loads(obj.data.materials[0].glossy.lamp_set)
 scenes.float_exr_output(scene, SIZE)
 index, _, _ = validation.pixel_geometry(scene, scene.camera, SIZE, SIZE, [sphere, torus])
