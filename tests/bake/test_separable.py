@@ -119,6 +119,22 @@ def test_nd_streams_in_memory_linear_in_its_output(monkeypatch):
     np.testing.assert_allclose(streamed.h, kept.h, atol=1e-6)
 
 
+@pytest.mark.parametrize("parameterization", ["half-difference", "gram-schmidt"])
+def test_the_one_term_nd_on_the_fill_equals_the_nd_of_the_filled_matrix(parameterization):
+    """The matrix-vector shortcut (no filled copy) against the general ND run on the
+    filled blocks; only float32 rounding of the fill may differ."""
+    model = brdf.parse("ggx:roughness=0.4,anisotropy=0.5")
+    matrix = separable.matrix_for(model, parameterization, 16)
+    g, h = separable._nd(matrix, 1, 2.0, None)
+    g, h = separable._als(matrix, g, h, 10, separable.ALS_TOLERANCE, None, double_round=False)
+    fast = separable._nd_one_term_filled(matrix, (g, h), None)
+    assert fast is not None
+    general = separable._nd(separable._Filled(matrix, (g, h)), 1, 2.0, None)
+    product = [np.einsum("cu,cv->cuv", a[..., 0], b[..., 0]) for a, b in (fast, general)]
+    scale = np.abs(product[1]).max()
+    assert np.abs(product[0] - product[1]).max() <= 1e-5 * scale
+
+
 @pytest.mark.parametrize("kind", ["xy", "parabolic"])
 def test_hemisphere_maps_round_trip_at_texel_centres(kind):
     size = 16
