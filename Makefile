@@ -34,6 +34,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/validate.py
 	$(PY) benchmarks/separable.py
 	$(PY) benchmarks/lamps.py
+	$(PY) benchmarks/sampling.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot

@@ -38,7 +38,7 @@ from .envmap import get_layout
 from .progress import report
 
 __all__ = ["reflected_radiance", "render", "render_steps", "sphere_buffers", "vector_layer",
-           "has_layer", "DEFAULT_TOLERANCE"]
+           "has_layer", "pixel_arrays", "DEFAULT_TOLERANCE"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Largest block edge (texels) of the pyramid's top level.
@@ -63,6 +63,18 @@ def _frames(normals, tangents, tangent_hint):
         t = tangents - np.sum(tangents * n, axis=1, keepdims=True) * n
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     return np.stack([t, np.cross(n, t), n], axis=1)
+
+
+def pixel_arrays(normals, views, tangents=None):
+    """Normals, views and tangents (or None) as (N, 3) float64; ValueError when the
+    normals and views differ in shape."""
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    views = np.asarray(views, dtype=np.float64).reshape(-1, 3)
+    if normals.shape != views.shape:
+        raise ValueError(f"normals {normals.shape} and views {views.shape} differ in shape")
+    if tangents is not None:
+        tangents = np.asarray(tangents, dtype=np.float64).reshape(-1, 3)
+    return normals, views, tangents
 
 
 def reflected_radiance(model, probe, layout, normals, views, tangent_hint=(0.3, 0.5, 0.8)):
@@ -231,12 +243,7 @@ def render_steps(model, probe, layout, normals, views, *, tangents=None,
     pixels and returns the (N, 3) radiance."""
     layout = get_layout(layout)
     probe = np.asarray(probe)
-    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    views = np.asarray(views, dtype=np.float64).reshape(-1, 3)
-    if normals.shape != views.shape:
-        raise ValueError(f"normals {normals.shape} and views {views.shape} differ in shape")
-    if tangents is not None:
-        tangents = np.asarray(tangents, dtype=np.float64).reshape(-1, 3)
+    normals, views, tangents = pixel_arrays(normals, views, tangents)
     tolerance = DEFAULT_TOLERANCE if tolerance is None else float(tolerance)
     levels = _pyramid(probe, layout)
     out = np.zeros((len(normals), 3))
