@@ -98,6 +98,20 @@ def test_the_eq_17_density_transform_integrates_the_brdf(spec, warp, xi0, tolera
     assert total == pytest.approx(model.albedo(wo, samples=8192)[0], rel=tolerance)
 
 
+@pytest.mark.parametrize("theta", [0.0, 0.6, 1.3])
+def test_the_vndf_pattern_integrates_the_brdf(theta):
+    """The pattern on the visible-normal sampler's disk: sum_j f cos Omega_j over 12
+    circles is the directional albedo (the library's MIS integral) to 1%: the
+    integrand f cos / p = G2 / G1 is smooth, and the disk holds all of the mass."""
+    model = brdf.parse("ggx:roughness=0.4,anisotropy=0.6,rotation=0.1")
+    wo = np.array([[np.sin(theta) * 0.8, np.sin(theta) * 0.6, np.cos(theta)]])
+    wi, omega, valid = sampling._vndf_samples(model, sampling.pattern(12, "s2"), wo)
+    total = np.sum(model.f(wi[0], wo) * np.clip(wi[0, :, 2:3], 0, None) * omega[0, :, None],
+                   axis=0)
+    assert valid.mean() > 0.8  # the rest reflect below the horizon: no light, weight 0
+    assert total == pytest.approx(model.albedo(wo, samples=8192)[0], rel=1e-2)
+
+
 def test_the_cube_texel_solid_angle_sums_to_the_sphere():
     """(2/n)^2 |d|_inf^3, the distortion factor of the MIP levels, against 4 pi."""
     cube = get_layout("cube")
@@ -148,6 +162,10 @@ def test_bad_input_is_refused_with_one_clear_message():
         sampling.pattern_for_budget(0, anisotropic=False)
     with pytest.raises(BakeError, match="xi_0"):
         sampling.threshold_radius(sampling.Lobe("ggx", 0.3, 0.3), 1.5)
+    with pytest.raises(BakeError, match="vndf warp"):
+        env = np.ones(get_layout("cube").shape(8) + (3,), np.float32)
+        sampling.render_regular(brdf.parse("beckmann:roughness=0.3"), env,
+                                np.array([[0, 0, 1.0]]), np.array([[0, 0, 1.0]]), warp="vndf")
     with pytest.raises(BakeError, match="radially symmetric"):
         env = np.ones(get_layout("cube").shape(8) + (3,), np.float32)
         sampling.render_regular(brdf.parse("ashikhmin_shirley:roughness=0.3"), env,
