@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/separable.py
 	$(PY) benchmarks/lamps.py
 	$(PY) benchmarks/sampling.py
+	$(PY) benchmarks/hybrid.py
 
 clean:
 	rm -rf build out wheels .pytest_cache .ruff_cache  # build/ holds the Debian Blender chroot
