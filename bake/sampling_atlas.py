@@ -1,0 +1,93 @@
+"""The probe's pre-blurred levels in one texture, for runtime sampling in shader nodes.
+
+Shader nodes have no level-of-detail input, so the per-sample MIP level of
+bake.sampling is realised by blending pre-blurred levels held in an atlas.
+The layout is bake.atlas's padded slice stack, one slice per level, so the
+existing four-tap node group (``Glossy Atlas Taps``) reads it unchanged:
+
+- the probe becomes a lat-long map of height H (W = 2H) and its
+  solid-angle-weighted MIP pyramid (bake.envmap.mip, ``gauss4`` by default);
+- level l (H / 2^l rows) is sampled back bilinearly at the base texel
+  directions, so every level is stored H x W (padded H + 2 x W + 2: pole rows,
+  wrapped columns) and a lookup at level l is the same four taps at every
+  level: atlas (L (H + 2), W + 3, 3), row 0 at the top;
+- a fractional level blends the two stored levels around it (trilinear).
+
+:class:`AtlasProbe` has :class:`bake.sampling.MipProbe`'s interface, so
+``bake.sampling.render_regular(..., mip=AtlasProbe(atlas, meta))`` is the
+NumPy twin of the node lookup. Its level-0 texel has the lat-long solid angle
+(pi / H)(2 pi / W) sin(theta), floored at the pole row's (the lat-long
+distortion factor, as (2/n)^2 |d|_inf^3 is the cube's).
+"""
+
+import numpy as np
+
+from .atlas import _lookup, _pad
+from .envmap import convert, get_layout
+from .envmap.mip import pyramid
+from .errors import BakeError
+
+__all__ = ["pack_levels", "AtlasProbe", "MODE"]
+
+MODE = "atlas_levels"
+
+
+def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None):
+    """(atlas, meta) of a probe's pre-blurred levels (see the module doc).
+
+    probe: (H, W, 3) in ``layout``; height: the lat-long rows (default: twice a
+    cube face, or the lat-long's own); levels: how many (default: down to 2 rows).
+    """
+    layout_obj = get_layout(layout)
+    probe = layout_obj.check_image(probe)[..., :3].astype(np.float32)
+    if height is None:
+        height = 2 * probe.shape[0] if layout_obj.name == "cube" else probe.shape[0]
+    if int(height) != height or height < 4 or int(height) & (int(height) - 1):
+        raise BakeError(f"the atlas height must be a power of two >= 4, not {height!r}")
+    height = int(height)
+    latlong = get_layout("latlong")
+    if layout_obj.name == "latlong" and probe.shape[0] == height:
+        base = probe
+    else:
+        base = convert(probe, layout_obj.name, "latlong", height).astype(np.float32)
+    most = int(np.log2(height))  # down to 2 rows
+    count = most if levels is None else int(levels)
+    if not 1 <= count <= most:
+        raise BakeError(f"levels must lie in 1..{most} for height {height}, not {levels!r}")
+    chain = pyramid(base, "latlong", filter, levels=count)
+    directions = latlong.texel_directions(base.shape[:2])
+    slices = [base] + [latlong.sampler(level)(directions)[..., :3].astype(np.float32)
+                       for level in chain[1:]]
+    atlas = np.concatenate([_pad(level) for level in slices], axis=0)
+    atlas = np.concatenate([atlas, np.zeros((atlas.shape[0], 1, 3), np.float32)], axis=1)
+    meta = {"mode": MODE, "slices": len(slices), "slice_height": height,
+            "slice_width": 2 * height, "filter": filter, "mu": [0.0] * len(slices),
+            "offsets": [0.0] * len(slices)}
+    return atlas.astype(np.float32), meta
+
+
+class AtlasProbe:
+    """A packed level atlas read as bake.sampling reads a MIP pyramid."""
+
+    def __init__(self, atlas, meta):
+        if meta.get("mode") != MODE:
+            raise BakeError(f"not a level atlas (mode {meta.get('mode')!r})")
+        self.atlas = np.asarray(atlas, dtype=np.float32)
+        self.meta = meta
+        self.height, self.width = int(meta["slice_height"]), int(meta["slice_width"])
+        self.count = int(meta["slices"])
+
+    def texel_solid_angle(self, directions):
+        """Solid angle (...) of a level-0 texel at unit directions (...)."""
+        sin_theta = np.sqrt(np.clip(1.0 - directions[..., 2] ** 2, 0.0, 1.0))
+        pole = np.sin(np.pi / (2.0 * self.height))  # the first row's centre
+        return (np.pi / self.height) * (2.0 * np.pi / self.width) * np.maximum(sin_theta, pole)
+
+    def lookup(self, directions, level):
+        """(..., 3) at unit directions (..., 3) and fractional levels (...)."""
+        level = np.clip(level, 0.0, self.count - 1)
+        low = np.floor(level).astype(int)
+        high = np.minimum(low + 1, self.count - 1)
+        frac = (level - low)[..., None]
+        return (_lookup(self.atlas, self.meta, low, directions) * (1.0 - frac)
+                + _lookup(self.atlas, self.meta, high, directions) * frac)

@@ -1,0 +1,99 @@
+"""bake.sampling_atlas: the pre-blurred level atlas the runtime-sampling nodes will read,
+against the lat-long map it comes from, the sphere's solid angle, power conservation,
+an EXR round trip and the cube-pyramid estimator."""
+
+import numpy as np
+import pytest
+
+from bake import brdf, exr, reference, sampling, sampling_atlas
+from bake.envmap import convert, get_layout
+from bake.errors import BakeError
+
+
+def _sky(face=16):
+    cube = get_layout("cube")
+    directions = cube.texel_directions(cube.shape(face))
+    return (0.3 + np.clip(directions[..., 2], 0, None)[..., None] * np.array([1.0, 2.0, 3.0])
+            + 0.5 * directions[..., :1] ** 2).astype(np.float32)
+
+
+def test_level_zero_reads_back_the_lat_long_map_at_texel_centres():
+    env = _sky()
+    atlas, meta = sampling_atlas.pack_levels(env, height=32)
+    probe = sampling_atlas.AtlasProbe(atlas, meta)
+    base = convert(env, "cube", "latlong", 32)
+    directions = get_layout("latlong").texel_directions(base.shape[:2])
+    got = probe.lookup(directions, np.zeros(directions.shape[:2]))
+    np.testing.assert_allclose(got, base, rtol=1e-5, atol=1e-6)
+
+
+def test_the_level_texel_solid_angle_sums_to_the_sphere():
+    atlas, meta = sampling_atlas.pack_levels(_sky(), height=64)
+    probe = sampling_atlas.AtlasProbe(atlas, meta)
+    latlong = get_layout("latlong")
+    directions = latlong.texel_directions(latlong.shape(64))
+    assert probe.texel_solid_angle(directions).sum() == pytest.approx(4 * np.pi, rel=2e-3)
+
+
+def test_every_level_keeps_the_radiant_power():
+    """The pyramid conserves sum(L omega) exactly; sampling a level back at the base
+    texels keeps it to the bilinear resampling's error: linear in theta between
+    row centres, which the sin(theta) weight of the rows does not conserve.
+    Measured: below 0.7% from 8 rows up, 1.8% for the 4-row level; 2.5% allowed."""
+    atlas, meta = sampling_atlas.pack_levels(sampling.spots_environment(16, 5), height=32)
+    latlong = get_layout("latlong")
+    omega = latlong.solid_angles(latlong.shape(32))[..., None]
+    rows = meta["slice_height"] + 2
+    powers = [np.sum(atlas[k * rows + 1:(k + 1) * rows - 1, 1:-2] * omega, axis=(0, 1))
+              for k in range(meta["slices"])]
+    for power in powers[1:]:
+        np.testing.assert_allclose(power, powers[0], rtol=2.5e-2)
+
+
+@pytest.mark.parametrize("spec", ["ggx:roughness=0.3,anisotropy=0.8",
+                                  "kurt:ks=1,mx=0.2,my=0.075,f0=0.5"])
+def test_a_constant_environment_stays_constant_through_the_atlas(spec):
+    model = brdf.parse(spec)
+    env = np.full(get_layout("cube").shape(8) + (3,), 1.5, np.float32)
+    probe = sampling_atlas.AtlasProbe(*sampling_atlas.pack_levels(env))
+    normals, views, mask = reference.sphere_buffers(16)
+    normals, views = normals[mask], views[mask]
+    out = sampling.render_regular(model, None, normals, views, budget=19, mip=probe)
+    frames = sampling._frames(normals, None, (0.3, 0.5, 0.8))
+    wo = np.einsum("bij,bj->bi", frames, views)
+    np.testing.assert_allclose(out, 1.5 * model.albedo(wo, samples=1024), rtol=1e-5, atol=1e-9)
+
+
+def test_the_atlas_estimate_agrees_with_the_cube_pyramid_s():
+    """Two independent MIP layouts (lat-long levels resampled to the base, cube
+    levels) under the same estimator, on a smooth sky: within 2% relative RMS
+    (their filters differ by a texel or so at each level)."""
+    env = _sky(32)
+    model = brdf.parse("ggx:roughness=0.3,anisotropy=0.6")
+    normals, views, mask = reference.sphere_buffers(24)
+    normals, views = normals[mask], views[mask]
+    atlas_probe = sampling_atlas.AtlasProbe(*sampling_atlas.pack_levels(env))
+    a = sampling.render_regular(model, None, normals, views, mip=atlas_probe)
+    c = sampling.render_regular(model, None, normals, views,
+                                mip=sampling.MipProbe(env, filter="gauss4"))
+    assert np.sqrt(np.mean((a - c) ** 2) / np.mean(c ** 2)) < 0.02
+
+
+def test_the_atlas_survives_an_exr_round_trip(tmp_path):
+    atlas, meta = sampling_atlas.pack_levels(_sky(), height=16)
+    exr.write(tmp_path / "levels.exr", atlas, meta)
+    again, again_meta = exr.read(tmp_path / "levels.exr")
+    probe = sampling_atlas.AtlasProbe(again[..., :3], again_meta)
+    directions = get_layout("latlong").texel_directions((16, 32))
+    np.testing.assert_array_equal(probe.lookup(directions, np.full((16, 32), 1.5)),
+                                  sampling_atlas.AtlasProbe(atlas, meta).lookup(
+                                      directions, np.full((16, 32), 1.5)))
+
+
+def test_bad_input_is_refused():
+    with pytest.raises(BakeError, match="power of two"):
+        sampling_atlas.pack_levels(_sky(), height=48)
+    with pytest.raises(BakeError, match="levels"):
+        sampling_atlas.pack_levels(_sky(), height=16, levels=9)
+    with pytest.raises(BakeError, match="not a level atlas"):
+        sampling_atlas.AtlasProbe(np.zeros((4, 4, 3)), {"mode": "atlas3d"})
