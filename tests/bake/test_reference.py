@@ -122,3 +122,23 @@ def test_command_line_reference(tmp_path, probes):
                          cwd=ROOT, capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "bad.exr").exists()
+
+
+def test_a_line_shaped_lobe_is_refined_along_its_length():
+    """Cycles' anisotropy 0.8 at roughness 0.3 is 25 times narrower across than
+    along (alpha 0.018 by 0.45). The adaptive sum must find it against the exact
+    sum over every texel (tolerance 0): its width is taken across the narrow axis
+    and the seeds along the whole lobe force refinement. Measured on these bright
+    spots: 0.09% (city and night HDRIs, 64^2 faces: 0.7% and 0.2%; before the
+    narrow-axis width this test failed, and the HDRIs gave 4.7% and 6.8%);
+    1.5% allowed."""
+    from bake import sampling
+
+    env = sampling.spots_environment(32, 3)
+    normals, views, mask = reference.sphere_buffers(20)
+    model = brdf.parse("ggx:roughness=0.3,anisotropy=0.8")
+    adaptive = reference.render(model, env, "cube", normals[mask], views[mask])
+    exact = reference.render(model, env, "cube", normals[mask], views[mask], tolerance=0)
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    difference = (adaptive - exact) @ lum
+    assert np.sqrt(np.mean(difference ** 2) / np.mean((exact @ lum) ** 2)) < 0.015
