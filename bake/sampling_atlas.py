@@ -70,12 +70,12 @@ class AtlasProbe:
     """A packed level atlas read as bake.sampling reads a MIP pyramid."""
 
     def __init__(self, atlas, meta):
-        if meta.get("mode") != MODE:
+        if meta.get("mode") not in (MODE, "atlas_runtime"):
             raise BakeError(f"not a level atlas (mode {meta.get('mode')!r})")
         self.atlas = np.asarray(atlas, dtype=np.float32)
         self.meta = meta
         self.height, self.width = int(meta["slice_height"]), int(meta["slice_width"])
-        self.count = int(meta["slices"])
+        self.count = int(meta.get("levels", meta["slices"]))  # runtime atlases hold more
 
     def texel_solid_angle(self, directions):
         """Solid angle (...) of a level-0 texel at unit directions (...)."""

@@ -1,0 +1,186 @@
+"""Runtime regular sampling as shader nodes will perform it: the baked constants
+and the NumPy twin of the per-pixel arithmetic (issue 11, item 4's contract).
+
+bake.sampling's estimator needs, per pixel, the BRDF's directional albedo and
+a MIP pyramid with a level-of-detail lookup; shader nodes have neither. This
+module fixes what a material carries instead, in one texture and its metadata,
+and :func:`shade` is exactly the arithmetic the node groups will do:
+
+The texture (``pack``): bake.sampling_atlas's level stack (L slices of the
+probe's pre-blurred lat-long levels, each (H + 2, W + 3)) and one more padded
+slice whose texels (row 1 + l, column 1 + k) hold the directional albedo
+rho(mu_k, phi_l) (RGB) at mu_k = m + (1 - m) k / (M - 1) (m = MIN_COS) and
+phi_l = (pi / 2) l / (P - 1) of the view's azimuth in the lobe frame folded
+into [0, pi / 2] (the GGX lobe is symmetric under both mirror axes); P = 1 for
+isotropic lobes.
+
+The constants (metadata): the lobe (``ax``, ``ay``, ``angle``), the density
+threshold ``xi0``, the MIP ``bias`` and, per sample j, its point (p1, p2) on
+the unit disk of Heitz's visible-normal sampler and the probability ``prob_j``
+its pattern cell holds (bake.sampling's ``vndf`` warp, GGX's default).
+
+Per pixel (world normal n, view v, tangent t; float32 in the nodes):
+    frame x = t orthogonalised against n, y = n x x, turned by ``angle``;
+    wo = (v.x, v.y, max(v.n, 1e-3)) normalised (the silhouette's grazing
+    normals read the horizon rather than nothing);
+    per sample: h_j = VNDF(wo, p_j), wi_j = 2 (wo.h_j) h_j - wo,
+    w_j = prob_j G2(wi_j, wo) (= f cos Omega_j up to the factor G1(wo) and the
+    tint, which cancel in the normalisation), 0 where wi_j,z <= 0,
+    Omega_j = prob_j 4 wo_z / (G1(wo) D(h_j)),
+    level_j = clamp(1/2 log2(Omega_j / Omega_t(wi_j)) + bias, 0, L - 1) with the
+    lat-long texel solid angle Omega_t (bake.sampling_atlas), read between
+    the two stored levels around it;
+    w_j = 0 where w_j < xi0 max_k w_k;
+    L(wo) = rho(wo) sum_j w_j L_j / sum_j w_j (eq. 18: a constant environment
+    is returned as its radiance times the albedo, to the table's bilinear
+    interpolation).
+
+The tint and a Fresnel term (Principled metallic) enter through rho only: the
+weights are scalar. That is the one difference from bake.sampling's
+render_regular besides the texture's lat-long levels and the tabulated albedo.
+"""
+
+import numpy as np
+
+from . import brdf
+from .atlas import _lookup, _pad
+from .brdf.microfacet import ggx_d, ggx_lambda, sample_ggx_vndf
+from .errors import BakeError
+from .sampling import DEFAULTS, lobe_of, pattern_for_budget
+from .sampling_atlas import AtlasProbe, pack_levels
+
+__all__ = ["pack", "shade", "MODE", "ALBEDO_MU", "ALBEDO_PHI"]
+
+MODE = "atlas_runtime"
+#: Albedo table size: M values of mu = n.v, P of the folded view azimuth.
+ALBEDO_MU = 32
+ALBEDO_PHI = 9
+#: Floor of wo_z in the lobe frame (see the module doc).
+MIN_COS = 1e-3
+#: Directional-albedo integration samples per table entry (bake.brdf's MIS).
+ALBEDO_SAMPLES = 1024
+
+
+def _lobe_directions(mu, phi):
+    mu, phi = np.broadcast_arrays(mu, phi)
+    sin = np.sqrt(np.clip(1.0 - mu * mu, 0.0, None))
+    return np.stack([sin * np.cos(phi), sin * np.sin(phi), mu], -1)
+
+
+def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi0=None,
+         bias=None):
+    """(atlas, meta) of a probe for runtime sampling of BRDF ``spec`` (module doc).
+
+    probe (H, W, 3) in ``layout``; budget: samples per pixel (the pattern with the
+    closest count); height: the level stack's lat-long rows (bake.sampling_atlas).
+    BakeError for a BRDF with no GGX lobe (the nodes sample GGX's visible normals).
+    """
+    model = brdf.parse(spec)
+    lobe = lobe_of(model)
+    if lobe.kind != "ggx":
+        raise BakeError(f"runtime sampling in shader nodes samples GGX lobes (ggx, "
+                        f"principled_metallic, ggx_multiscatter), not {lobe.kind} "
+                        f"({model.spec})")
+    _, default_xi0, default_bias = DEFAULTS["ggx"]
+    xi0 = default_xi0 if xi0 is None else float(xi0)
+    bias = default_bias if bias is None else float(bias)
+    plan = pattern_for_budget(budget, lobe.anisotropic)
+    levels, meta = pack_levels(probe, layout, height, filter)
+    height, width = meta["slice_height"], meta["slice_width"]
+    count_phi = ALBEDO_PHI if lobe.anisotropic else 1
+    if ALBEDO_MU > width or count_phi > height:
+        raise BakeError(f"the level stack ({height} rows) is too small for the albedo table")
+    mu = MIN_COS + (1.0 - MIN_COS) * np.linspace(0.0, 1.0, ALBEDO_MU)  # wo_z >= MIN_COS
+    phi = np.linspace(0.0, 0.5 * np.pi, count_phi) if count_phi > 1 else np.zeros(1)
+    wo_lobe = _lobe_directions(mu[None, :], phi[:, None])  # (P, M, 3) in the lobe frame
+    cos_a, sin_a = np.cos(lobe.angle), np.sin(lobe.angle)
+    wo_model = np.stack([cos_a * wo_lobe[..., 0] - sin_a * wo_lobe[..., 1],
+                         sin_a * wo_lobe[..., 0] + cos_a * wo_lobe[..., 1], wo_lobe[..., 2]], -1)
+    table = model.albedo(wo_model, samples=ALBEDO_SAMPLES).astype(np.float32)  # (P, M, 3)
+    extra = np.zeros((height, width, 3), np.float32)
+    extra[:count_phi, :ALBEDO_MU] = table
+    extra_padded = np.concatenate([_pad(extra), np.zeros((height + 2, 1, 3), np.float32)], 1)
+    extra_padded[1:1 + count_phi, 1:1 + ALBEDO_MU] = table  # exact, not the padding's means
+    atlas = np.concatenate([levels, extra_padded], axis=0)
+    points = plan.points / plan.edge
+    prob = plan.cells / (np.pi * plan.edge ** 2)
+    meta.update({
+        "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
+        "mu": [0.0] * (meta["slices"] + 1), "offsets": [0.0] * (meta["slices"] + 1),
+        "spec": model.spec, "kind": "ggx", "ax": float(lobe.mx), "ay": float(lobe.my),
+        "angle": float(lobe.angle), "xi0": xi0, "bias": bias, "budget": int(budget),
+        "spacing": plan.spacing, "circles": len(plan.radii),
+        "disk": points.tolist(), "prob": prob.tolist(),
+        "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS})
+    return atlas.astype(np.float32), meta
+
+
+def _albedo(atlas, meta, wo):
+    """rho (B, 3) from the table at lobe-frame views wo (B, 3), bilinear as the nodes."""
+    count_mu, count_phi = int(meta["albedo_mu"]), int(meta["albedo_phi"])
+    base = int(meta["levels"]) * (int(meta["slice_height"]) + 2) + 1
+    x = np.clip((wo[:, 2] - MIN_COS) / (1.0 - MIN_COS), 0.0, 1.0) * (count_mu - 1)
+    x0 = np.minimum(np.floor(x), count_mu - 2)
+    fx = (x - x0)[:, None]
+    if count_phi > 1:
+        phi = np.arctan2(np.abs(wo[:, 1]), np.abs(wo[:, 0]))
+        y = np.clip(phi / (0.5 * np.pi), 0.0, 1.0) * (count_phi - 1)
+        y0 = np.minimum(np.floor(y), count_phi - 2)
+    else:
+        y = y0 = np.zeros_like(x)
+    fy = (y - y0)[:, None]
+    x0, y0 = x0.astype(int) + 1, y0.astype(int) + base
+    y1 = y0 + (1 if count_phi > 1 else 0)
+    top = atlas[y0, x0] * (1 - fx) + atlas[y0, x0 + 1] * fx
+    bottom = atlas[y1, x0] * (1 - fx) + atlas[y1, x0 + 1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.8)):
+    """(N, 3) radiance the runtime-sampling nodes compute for world-space unit
+    normals, views (surface to viewer) and tangents (N, 3) each (tangents None:
+    bake.reference's hint frame)."""
+    from .reference import _frames, pixel_arrays
+
+    if meta.get("mode") != MODE:
+        raise BakeError(f"not a runtime-sampling atlas (mode {meta.get('mode')!r})")
+    normals, views, tangents = pixel_arrays(normals, views, tangents)
+    atlas = np.asarray(atlas, dtype=np.float64)
+    frames = _frames(normals, tangents, tangent_hint)
+    angle = float(meta["angle"])
+    x = np.cos(angle) * frames[:, 0] + np.sin(angle) * frames[:, 1]
+    y = np.cross(frames[:, 2], x)
+    frames = np.stack([x, y, frames[:, 2]], axis=1)
+    wo = np.einsum("bij,bj->bi", frames, views)
+    wo[:, 2] = np.maximum(wo[:, 2], MIN_COS)
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    ax, ay = float(meta["ax"]), float(meta["ay"])
+    disk = np.asarray(meta["disk"], dtype=np.float64)
+    prob = np.asarray(meta["prob"], dtype=np.float64)
+    u = np.stack([np.sum(disk * disk, axis=1),
+                  np.mod(np.arctan2(disk[:, 1], disk[:, 0]), 2.0 * np.pi) / (2.0 * np.pi)], -1)
+    h = sample_ggx_vndf(wo[:, None, :], u[None], ax, ay)  # (B, S, 3)
+    wo_h = np.sum(wo[:, None, :] * h, axis=-1)
+    wi = 2.0 * wo_h[..., None] * h - wo[:, None, :]
+    valid = (wi[..., 2] > 0) & (wo_h > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g1 = 1.0 / (1.0 + ggx_lambda(wo, ax, ay))  # (B,)
+        g2 = 1.0 / (1.0 + ggx_lambda(wi, ax, ay) + ggx_lambda(wo, ax, ay)[:, None])
+        omega = prob[None] * 4.0 * wo[:, 2:3] / (g1[:, None] * ggx_d(h, ax, ay))
+    weight = np.where(valid, prob[None] * g2, 0.0)
+    weight = np.where(weight >= float(meta["xi0"]) * weight.max(axis=1, keepdims=True),
+                      weight, 0.0)
+    world = np.einsum("bnk,bkj->bnj", np.where(valid[..., None], wi, wo[:, None, :]), frames)
+    probe = AtlasProbe(atlas, meta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        level = 0.5 * np.log2(np.where(valid, omega, 1.0) / probe.texel_solid_angle(world)) + \
+            float(meta["bias"])
+    level = np.clip(np.where(valid, level, 0.0), 0.0, probe.count - 1)
+    low = np.floor(level).astype(int)
+    high = np.minimum(low + 1, probe.count - 1)
+    frac = (level - low)[..., None]
+    radiance = (_lookup(atlas, meta, low, world) * (1.0 - frac)
+                + _lookup(atlas, meta, high, world) * frac)
+    total = weight.sum(axis=1, keepdims=True)
+    mean = np.sum(weight[..., None] * radiance, axis=1) / np.where(total > 0, total, 1.0)
+    return np.where(total > 0, mean, 0.0) * _albedo(atlas, meta, wo)
