@@ -1,0 +1,238 @@
+"""Shader nodes that reproduce bake.sampling_runtime.shade: runtime regular sampling.
+
+Per pixel, one shared group (``Glossy Runtime Frame v1``) builds the lobe frame
+from the normal, the view and a tangent and the view's terms of Heitz's
+visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v1``)
+turns the sample's disk point into a world direction, its weight and its MIP
+level. The material holds what node groups cannot: the image taps (four
+Closest taps per stored level, bilinear weights from ``Glossy Atlas Taps v1``,
+two levels per sample) and the sum over the samples, normalised and scaled by
+the tabulated albedo. Not yet offered by the add-on's UI (issue 11, item 4).
+"""
+
+import math
+
+import bpy
+
+from .nodes import _Builder, _group, _group_node, _io, _tap, atlas_taps_group
+
+GROUP_VERSION = 1
+FRAME_GROUP = f"Glossy Runtime Frame v{GROUP_VERSION}"
+SAMPLE_GROUP = f"Glossy VNDF Sample v{GROUP_VERSION}"
+_FLOAT, _VECTOR = "NodeSocketFloat", "NodeSocketVector"
+
+
+def _lambda(b, w, ax, ay):
+    """GGX Smith Lambda (sqrt(1 + (ax^2 wx^2 + ay^2 wy^2) / wz^2) - 1) / 2."""
+    x, y, z = b.separate(w)
+    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), ax * ax),
+                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), ay * ay))
+    ratio = b.math("DIVIDE", top, b.math("MAXIMUM", b.math("MULTIPLY", z, z), 1e-12))
+    return b.math("MULTIPLY", b.math("SUBTRACT", b.math("SQRT", b.math("ADD", ratio, 1.0)),
+                                     1.0), 0.5)
+
+
+def frame_group(ax, ay):
+    """Per-material group (the lobe's alphas are constants): inputs Normal, Incoming,
+    Tangent, Angle; outputs the lobe frame X, Y, N (world), Wo (lobe frame, z floored
+    at MinCos), the VNDF basis Vh, T1, T2, S and the view's Lambda."""
+    name = f"{FRAME_GROUP} {ax:.6g} {ay:.6g}"
+    tree = _group(name, [("Normal", _VECTOR), ("Incoming", _VECTOR), ("Tangent", _VECTOR),
+                         ("Angle", _FLOAT), ("MinCos", _FLOAT)],
+                  [("X", _VECTOR), ("Y", _VECTOR), ("N", _VECTOR), ("Wo", _VECTOR),
+                   ("Vh", _VECTOR), ("T1", _VECTOR), ("T2", _VECTOR), ("S", _FLOAT),
+                   ("Lambda", _FLOAT)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    inputs, outputs = _io(tree)
+    n = b.vec("NORMALIZE", inputs["Normal"])
+    v = b.vec("NORMALIZE", inputs["Incoming"])
+    t = inputs["Tangent"]
+    t = b.vec("NORMALIZE", b.vec("SUBTRACT", t, b.vec("SCALE", n, scale=b.vec(
+        "DOT_PRODUCT", t, n))))
+    y0 = b.vec("CROSS_PRODUCT", n, t)
+    cos_a, sin_a = b.math("COSINE", inputs["Angle"]), b.math("SINE", inputs["Angle"])
+    x = b.vec("ADD", b.vec("SCALE", t, scale=cos_a), b.vec("SCALE", y0, scale=sin_a))
+    y = b.vec("CROSS_PRODUCT", n, x)
+    wo = b.vec("NORMALIZE", b.combine(b.vec("DOT_PRODUCT", v, x), b.vec("DOT_PRODUCT", v, y),
+                                      b.math("MAXIMUM", b.vec("DOT_PRODUCT", v, n),
+                                             inputs["MinCos"])))
+    wx, wy, wz = b.separate(wo)
+    vh = b.vec("NORMALIZE", b.combine(b.math("MULTIPLY", wx, ax), b.math("MULTIPLY", wy, ay),
+                                      wz))
+    hx, hy, hz = b.separate(vh)
+    lensq = b.math("ADD", b.math("MULTIPLY", hx, hx), b.math("MULTIPLY", hy, hy))
+    has = b.math("GREATER_THAN", lensq, 0.0)
+    inv = b.math("DIVIDE", 1.0, b.math("SQRT", b.math("MAXIMUM", lensq, 1e-30)))
+    t1 = b.combine(b.select(has, b.math("MULTIPLY", b.math("MULTIPLY", hy, -1.0), inv), 1.0),
+                   b.select(has, b.math("MULTIPLY", hx, inv), 0.0), 0.0)
+    for socket, value in (("X", x), ("Y", y), ("N", n), ("Wo", wo), ("Vh", vh), ("T1", t1),
+                          ("T2", b.vec("CROSS_PRODUCT", vh, t1)),
+                          ("S", b.math("MULTIPLY", b.math("ADD", hz, 1.0), 0.5)),
+                          ("Lambda", _lambda(b, wo, ax, ay))):
+        b.link(value, outputs[socket])
+    return tree
+
+
+def sample_group(ax, ay):
+    """Per-material group: one sample's world Direction, Weight (prob G2, 0 when
+    invalid) and MIP Level (clamped to [0, Levels - 1]) from its disk point P1, P2
+    and cell probability Prob (bake.sampling_runtime's module doc)."""
+    name = f"{SAMPLE_GROUP} {ax:.6g} {ay:.6g}"
+    names = ["X", "Y", "N", "Wo", "Vh", "T1", "T2"]
+    tree = _group(name, [(s, _VECTOR) for s in names]
+                  + [(s, _FLOAT) for s in ("S", "Lambda", "P1", "P2", "Prob", "Bias", "Levels",
+                                           "Texel", "Pole")],
+                  [("Direction", _VECTOR), ("Weight", _FLOAT), ("Level", _FLOAT)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, outputs = _io(tree)
+    p1, s = i["P1"], i["S"]
+    root1 = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", p1, p1)),
+                                  0.0))
+    p2 = b.math("ADD", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, s), root1),
+                b.math("MULTIPLY", s, i["P2"]))
+    rest = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", b.math(
+        "SUBTRACT", 1.0, b.math("MULTIPLY", p1, p1)), b.math("MULTIPLY", p2, p2)), 0.0))
+    nh = b.vec("ADD", b.vec("ADD", b.vec("SCALE", i["T1"], scale=p1),
+                            b.vec("SCALE", i["T2"], scale=p2)), b.vec("SCALE", i["Vh"], scale=rest))
+    nx, ny, nz = b.separate(nh)
+    h = b.vec("NORMALIZE", b.combine(b.math("MULTIPLY", nx, ax), b.math("MULTIPLY", ny, ay),
+                                     b.math("MAXIMUM", nz, 0.0)))
+    wo = i["Wo"]
+    wo_h = b.vec("DOT_PRODUCT", wo, h)
+    wi = b.vec("SUBTRACT", b.vec("SCALE", h, scale=b.math("MULTIPLY", wo_h, 2.0)), wo)
+    wix, wiy, wiz = b.separate(wi)
+    valid = b.math("MULTIPLY", b.math("GREATER_THAN", wiz, 0.0),
+                   b.math("GREATER_THAN", wo_h, 0.0))
+    g2 = b.math("DIVIDE", 1.0, b.math("ADD", b.math("ADD", _lambda(b, wi, ax, ay), i["Lambda"]),
+                                      1.0))
+    b.link(b.math("MULTIPLY", valid, b.math("MULTIPLY", i["Prob"], g2)), outputs["Weight"])
+    world = b.vec("ADD", b.vec("ADD", b.vec("SCALE", i["X"], scale=wix),
+                               b.vec("SCALE", i["Y"], scale=wiy)),
+                  b.vec("SCALE", i["N"], scale=wiz))
+    b.link(world, outputs["Direction"])
+    hx, hy, hz = b.separate(h)
+    t = b.math("ADD", b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", hx, hx), 1 / ax ** 2),
+                             b.math("MULTIPLY", b.math("MULTIPLY", hy, hy), 1 / ay ** 2)),
+               b.math("MULTIPLY", hz, hz))
+    _, _, woz = b.separate(wo)
+    # Omega = prob 4 wo_z (1 + Lambda_o) / D(h), D = 1 / (pi ax ay t^2)
+    omega = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", i["Prob"], woz),
+                                      b.math("ADD", i["Lambda"], 1.0)),
+                   b.math("MULTIPLY", b.math("MULTIPLY", t, t), 4.0 * math.pi * ax * ay))
+    _, _, dz = b.separate(world)
+    sin_theta = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math(
+        "MULTIPLY", dz, dz)), 0.0))
+    texel = b.math("MULTIPLY", i["Texel"], b.math("MAXIMUM", sin_theta, i["Pole"]))
+    level = b.math("ADD", b.math("MULTIPLY", b.math("LOGARITHM", b.math(
+        "DIVIDE", omega, texel), 2.0), 0.5), i["Bias"])
+    level = b.math("MINIMUM", b.math("MAXIMUM", level, 0.0),
+                   b.math("SUBTRACT", i["Levels"], 1.0))
+    b.link(b.math("MULTIPLY", level, valid), outputs["Level"])
+    return tree
+
+
+def runtime_value(b, image, meta, normal, view, tangent):
+    """The runtime-sampling radiance (colour socket) of a bake.sampling_runtime atlas."""
+    ax, ay = float(meta["ax"]), float(meta["ay"])
+    levels, height, width = int(meta["levels"]), int(meta["slice_height"]), \
+        int(meta["slice_width"])
+    slices = int(meta["slices"])
+    min_cos = float(meta["min_cos"])
+    frame = _group_node(b, frame_group(ax, ay), {
+        "Normal": normal, "Incoming": view, "Tangent": tangent, "Angle": float(meta["angle"]),
+        "MinCos": min_cos})
+    shared = {k: frame[k] for k in ("X", "Y", "N", "Wo", "Vh", "T1", "T2", "S", "Lambda")}
+    constants = {"Bias": float(meta["bias"]), "Levels": float(levels),
+                 "Texel": (math.pi / height) * (2.0 * math.pi / width),
+                 "Pole": math.sin(math.pi / (2.0 * height))}
+    sizes = {"Slices": float(slices), "Slice Height": float(height),
+             "Slice Width": float(width), "Atlas Cols": float(width + 3)}
+    samples = []
+    for (p1, p2), prob in zip(meta["disk"], meta["prob"], strict=True):
+        out = _group_node(b, sample_group(ax, ay), {**shared, **constants, "P1": float(p1),
+                                                    "P2": float(p2), "Prob": float(prob)})
+        low = b.math("FLOOR", out["Level"])
+        high = b.math("MINIMUM", b.math("ADD", low, 1.0), float(levels - 1))
+        values = []
+        for k in (low, high):
+            taps = _group_node(b, atlas_taps_group(), {
+                "Normal": out["Direction"], "Incoming": out["Direction"], "K": k, "Offset": 0.0,
+                **sizes})
+            top = b.mix(taps["FX"], _tap(b, taps["UV00"], image), _tap(b, taps["UV01"], image))
+            bottom = b.mix(taps["FX"], _tap(b, taps["UV10"], image),
+                           _tap(b, taps["UV11"], image))
+            values.append(b.mix(taps["FY"], top, bottom))
+        radiance = b.mix(b.math("SUBTRACT", out["Level"], low), values[0], values[1])
+        samples.append((out["Weight"], radiance))
+    strongest = samples[0][0]
+    for weight, _ in samples[1:]:
+        strongest = b.math("MAXIMUM", strongest, weight)
+    threshold = b.math("MULTIPLY", strongest, float(meta["xi0"]))
+    total, summed = 0.0, None
+    for weight, radiance in samples:
+        kept = b.math("MULTIPLY", weight, b.math("SUBTRACT", 1.0, b.math(
+            "LESS_THAN", weight, threshold)))
+        total = b.math("ADD", total, kept) if total != 0.0 else kept
+        term = b.vec("SCALE", radiance, scale=kept)
+        summed = term if summed is None else b.vec("ADD", summed, term)
+    mean = b.vec("SCALE", summed, scale=b.math("DIVIDE", 1.0, b.math("MAXIMUM", total, 1e-30)))
+    return b.vec("MULTIPLY", mean, _albedo(b, image, meta, frame["Wo"]))
+
+
+def _albedo(b, image, meta, wo):
+    """rho(wo) from the table slice: four Closest taps, bilinear weights."""
+    count_mu, count_phi = int(meta["albedo_mu"]), int(meta["albedo_phi"])
+    height, width = int(meta["slice_height"]), int(meta["slice_width"])
+    rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
+    base = int(meta["levels"]) * (height + 2) + 1
+    min_cos = float(meta["min_cos"])
+    wx, wy, wz = b.separate(wo)
+    x = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math(
+        "DIVIDE", b.math("SUBTRACT", wz, min_cos), 1.0 - min_cos), 0.0), 1.0), count_mu - 1)
+    x0 = b.math("MINIMUM", b.math("FLOOR", x), count_mu - 2)
+    fx = b.math("SUBTRACT", x, x0)
+    if count_phi > 1:
+        phi = b.math("ARCTAN2", b.math("ABSOLUTE", wy), b.math("ABSOLUTE", wx))
+        y = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math(
+            "DIVIDE", phi, 0.5 * math.pi), 0.0), 1.0), count_phi - 1)
+        y0 = b.math("MINIMUM", b.math("FLOOR", y), count_phi - 2)
+        fy, step = b.math("SUBTRACT", y, y0), 1.0
+    else:
+        y0, fy, step = 0.0, 0.0, 0.0
+    u0 = b.math("DIVIDE", b.math("ADD", x0, 1.5), cols)
+    u1 = b.math("DIVIDE", b.math("ADD", x0, 2.5), cols)
+    row0 = b.math("ADD", y0, base + 0.5)
+    v0 = b.math("SUBTRACT", 1.0, b.math("DIVIDE", row0, rows))
+    v1 = b.math("SUBTRACT", 1.0, b.math("DIVIDE", b.math("ADD", row0, step), rows))
+    top = b.mix(fx, _tap(b, b.combine(u0, v0), image), _tap(b, b.combine(u1, v0), image))
+    bottom = b.mix(fx, _tap(b, b.combine(u0, v1), image), _tap(b, b.combine(u1, v1), image))
+    return b.mix(fy, top, bottom)
+
+
+def build_runtime(material, image, meta, tangent=("RADIAL", "Z")):
+    """Replace ``material``'s nodes by the runtime-sampling lookup of ``image``
+    (a bake.sampling_runtime atlas). tangent: ("RADIAL", axis) or ("UV_MAP", name),
+    Blender's Tangent node (as Cycles takes an anisotropic BSDF's tangent)."""
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    b = _Builder(tree)
+    geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+    tangent_node = b._place(tree.nodes.new("ShaderNodeTangent"))
+    tangent_node.direction_type = tangent[0]
+    if tangent[0] == "RADIAL":
+        tangent_node.axis = tangent[1]
+    else:
+        tangent_node.uv_map = tangent[1]
+    value = runtime_value(b, image, meta, geometry.outputs["Normal"],
+                          geometry.outputs["Incoming"], tangent_node.outputs["Tangent"])
+    emission = b._place(tree.nodes.new("ShaderNodeEmission"))
+    b.link(value, emission.inputs["Color"])
+    output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
+    b.link(emission.outputs[0], output.inputs["Surface"])
+    material["glossy_runtime_version"] = GROUP_VERSION
+    return material

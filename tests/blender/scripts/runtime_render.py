@@ -1,0 +1,104 @@
+"""Render the runtime-sampling material with EEVEE and record it beside
+bake.sampling_runtime.shade evaluated at each pixel's own normal and tangent.
+
+    python runtime_render.py REPO WORKDIR HDRI SPEC RESULT.json
+
+A sphere under an orthographic camera (view +Z everywhere), its tangent
+Blender's radial one about Z. Three renders with identical settings: the
+lookup, an emission of the Geometry normal and one of the Tangent node's
+output, so the twin is evaluated at the vectors EEVEE shaded with (half floats).
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+repo, workdir, hdri, spec, result_path = (Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3],
+                                          sys.argv[4], sys.argv[5])
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+from glossy.bake import envmap, exr, sampling_runtime  # noqa: E402
+from glossy.glossy_addon.nodes import load_atlas  # noqa: E402
+from glossy.glossy_addon.sampling_nodes import build_runtime  # noqa: E402
+from glossy.glossy_addon.scenes import float_exr_output  # noqa: E402
+
+environment, _ = exr.read(hdri)
+probe = envmap.convert(environment, "latlong", "cube", 16)
+image_data, meta = sampling_runtime.pack(probe, spec)
+atlas_path = workdir / "runtime.exr"
+exr.write(atlas_path, image_data, meta)
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+float_exr_output(scene, 48)
+scene.render.film_transparent = False
+scene.render.filter_size = 0.0
+bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
+sphere = bpy.context.object
+bpy.ops.object.shade_smooth()
+camera_data = bpy.data.cameras.new("ortho")
+camera_data.type = "ORTHO"
+camera_data.ortho_scale = 2.4
+camera = bpy.data.objects.new("ortho", camera_data)
+camera.location = (0.0, 0.0, 5.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+
+lookup = bpy.data.materials.new("lookup")
+build_runtime(lookup, load_atlas(atlas_path), meta, ("RADIAL", "Z"))
+
+
+def encoded(name, socket_of):
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    source = socket_of(tree)
+    unit = tree.nodes.new("ShaderNodeVectorMath")
+    unit.operation = "NORMALIZE"
+    encode = tree.nodes.new("ShaderNodeVectorMath")  # colours clamp negatives: v / 2 + 1/2
+    encode.operation = "MULTIPLY_ADD"
+    encode.inputs[1].default_value = (0.5, 0.5, 0.5)
+    encode.inputs[2].default_value = (0.5, 0.5, 0.5)
+    emission = tree.nodes.new("ShaderNodeEmission")
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(source, unit.inputs[0])
+    tree.links.new(unit.outputs["Vector"], encode.inputs[0])
+    tree.links.new(encode.outputs["Vector"], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    return material
+
+
+def radial(tree):
+    node = tree.nodes.new("ShaderNodeTangent")
+    node.direction_type, node.axis = "RADIAL", "Z"
+    return node.outputs["Tangent"]
+
+
+normals = encoded("normals", lambda tree: tree.nodes.new("ShaderNodeNewGeometry").outputs["Normal"])
+tangents = encoded("tangents", radial)
+sphere.data.materials.append(lookup)
+# EEVEE: the material is its target (Cycles' SVM runs out of stack space on
+# graphs of this many live values; Cycles renders the true BSDF instead).
+scene.render.engine = "BLENDER_EEVEE"
+scene.eevee.taa_render_samples = 1
+renders = {}
+for name, material in (("lookup", lookup), ("normal", normals), ("tangent", tangents)):
+    sphere.data.materials[0] = material
+    scene.render.filepath = str(workdir / f"{name}.exr")
+    bpy.ops.render.render(write_still=True)
+    renders[name] = exr.read(scene.render.filepath)[0][..., :3].astype(np.float64)
+n = renders["normal"] * 2.0 - 1.0
+t = renders["tangent"] * 2.0 - 1.0
+on_sphere = (np.abs(np.linalg.norm(n, axis=-1) - 1.0) < 0.01) & (n[..., 2] > 0.05)
+on_sphere &= np.abs(np.linalg.norm(t, axis=-1) - 1.0) < 0.01
+views = np.broadcast_to([0.0, 0.0, 1.0], n[on_sphere].shape)
+predicted = sampling_runtime.shade(image_data, meta, n[on_sphere], views, t[on_sphere])
+rendered = renders["lookup"][on_sphere]
+relative = np.abs(rendered - predicted) / np.maximum(np.abs(predicted), 1e-3)
+with open(result_path, "w") as handle:
+    json.dump({"pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
+               "p99": float(np.percentile(relative, 99)), "max": float(relative.max()),
+               "mean_value": float(np.mean(predicted))}, handle, indent=1)
