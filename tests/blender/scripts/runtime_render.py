@@ -19,10 +19,10 @@ repo, workdir, hdri, spec, result_path = (Path(sys.argv[1]), Path(sys.argv[2]), 
                                           sys.argv[4], sys.argv[5])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+from _ortho_sphere import ortho_sphere_scene  # noqa: E402
 from glossy.bake import envmap, exr, sampling_runtime  # noqa: E402
 from glossy.glossy_addon.nodes import load_atlas  # noqa: E402
 from glossy.glossy_addon.sampling_nodes import build_runtime  # noqa: E402
-from glossy.glossy_addon.scenes import float_exr_output  # noqa: E402
 
 environment, _ = exr.read(hdri)
 probe = envmap.convert(environment, "latlong", "cube", 16)
@@ -30,21 +30,7 @@ image_data, meta = sampling_runtime.pack(probe, spec)
 atlas_path = workdir / "runtime.exr"
 exr.write(atlas_path, image_data, meta)
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-float_exr_output(scene, 48)
-scene.render.film_transparent = False
-scene.render.filter_size = 0.0
-bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
-sphere = bpy.context.object
-bpy.ops.object.shade_smooth()
-camera_data = bpy.data.cameras.new("ortho")
-camera_data.type = "ORTHO"
-camera_data.ortho_scale = 2.4
-camera = bpy.data.objects.new("ortho", camera_data)
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+scene, sphere = ortho_sphere_scene(48)
 
 lookup = bpy.data.materials.new("lookup")
 build_runtime(lookup, load_atlas(atlas_path), meta, ("RADIAL", "Z"))
