@@ -21,6 +21,7 @@ size, terms, param, result_path = int(sys.argv[4]), int(sys.argv[5]), sys.argv[6
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
+from _ortho_sphere import add_sphere_and_camera  # noqa: E402
 from glossy.glossy_addon import lamps, scenes, validation  # noqa: E402
 
 RESOLUTION = 64
@@ -32,17 +33,9 @@ world.use_nodes = True
 world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
 scene.world = world
 scene.render.film_transparent = True
-bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0)
-sphere = bpy.context.object
-bpy.ops.object.shade_smooth()
-camera_data = bpy.data.cameras.new("camera")
-camera_data.type = "ORTHO"
-camera_data.ortho_scale = 2.2
-camera = bpy.data.objects.new("camera", camera_data)
-camera.location = (0.0, -6.0, 1.5)
-camera.rotation_euler = (math.radians(90 - 14.04), 0.0, 0.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+sphere = add_sphere_and_camera(scene, 96, 48, 2.2, (0.0, -6.0, 1.5),
+                               (math.radians(90 - 14.04), 0.0, 0.0))
+camera = scene.camera
 LAMPS = {"point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0, "shadow_soft_size": 0.0}),
          "sun": ("SUN", (0.0, 0.0, 5.0), (math.radians(50), 0.0, math.radians(-130)),
                  {"energy": 2.0, "angle": 0.0}),
