@@ -33,7 +33,8 @@ import numpy as np
 
 from .errors import BakeError
 
-__all__ = ["ErrorTable", "load_table", "blend_weight", "TABLE_PATH"]
+__all__ = ["ErrorTable", "load_table", "blend_weight", "weight_curve", "blend_curve",
+           "TABLE_PATH"]
 
 TABLE_PATH = Path(__file__).with_name("hybrid_errors.json")
 
@@ -87,3 +88,26 @@ def blend_weight(mu, roughness, table=None):
     material of the given (isotropic GGX) roughness."""
     table = table or load_table()
     return np.clip(table.interpolate(table.weight, mu, roughness), 0.0, 1.0)
+
+
+def weight_curve(roughness, table=None):
+    """(centres (B,), weights (B,)): the regular estimate's weight at the mu bins'
+    centres for one roughness, the knots of the piecewise-linear w(mu) a
+    material carries (the Hybrid's shader nodes evaluate it with
+    :func:`blend_curve`'s arithmetic)."""
+    table = table or load_table()
+    centres = 0.5 * (table.edges[:-1] + table.edges[1:])
+    weights = np.clip(table.interpolate(table.weight, centres, roughness), 0.0, 1.0)
+    return centres, weights
+
+
+def blend_curve(mu, centres, weights):
+    """w (...) at mu (...) from the knots: w_0 + sum_i (w_{i+1} - w_i) t_i with
+    t_i = clamp((mu - c_i) / (c_{i+1} - c_i), 0, 1), i.e. np.interp with the
+    ends held, written as the shader nodes compute it."""
+    mu = np.asarray(mu, dtype=np.float64)
+    value = np.full(mu.shape, float(weights[0]))
+    for i in range(len(centres) - 1):
+        t = np.clip((mu - centres[i]) / (centres[i + 1] - centres[i]), 0.0, 1.0)
+        value = value + (float(weights[i + 1]) - float(weights[i])) * t
+    return value

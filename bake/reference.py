@@ -52,15 +52,18 @@ BATCH = 1 << 17
 
 
 def _frames(normals, tangents, tangent_hint):
-    """(N, 3, 3) rows x = tangent, y = n x t, z = n."""
+    """(N, 3, 3) rows x = tangent, y = n x t, z = n (the hint's frame where a given
+    tangent is zero or along n)."""
     n = normals
-    if tangents is None:
-        t = np.cross(n, np.asarray(tangent_hint, dtype=np.float64))
-        small = np.linalg.norm(t, axis=1) < 1e-6
-        t[small] = np.cross(n[small], (1.0, 0.0, 0.0))
-        t = np.cross(t, n)  # the hint's part along the surface, as the loop below
-    else:
-        t = tangents - np.sum(tangents * n, axis=1, keepdims=True) * n
+    hint = (0.3, 0.5, 0.8) if tangent_hint is None else tangent_hint
+    t = np.cross(n, np.asarray(hint, dtype=np.float64))
+    small = np.linalg.norm(t, axis=1) < 1e-6
+    t[small] = np.cross(n[small], (1.0, 0.0, 0.0))
+    t = np.cross(t, n)  # the hint's part along the surface, as the loop below
+    if tangents is not None:  # given tangents; the hint where one vanishes (a pole)
+        given = tangents - np.sum(tangents * n, axis=1, keepdims=True) * n
+        usable = np.linalg.norm(given, axis=1) > 1e-9
+        t[usable] = given[usable]
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     return np.stack([t, np.cross(n, t), n], axis=1)
 

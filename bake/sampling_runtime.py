@@ -49,7 +49,7 @@ from .errors import BakeError
 from .sampling import DEFAULTS, lobe_of, pattern_for_budget
 from .sampling_atlas import AtlasProbe, pack_levels
 
-__all__ = ["pack", "shade", "MODE", "ALBEDO_MU", "ALBEDO_PHI"]
+__all__ = ["pack", "shade", "check", "MODE", "ALBEDO_MU", "ALBEDO_PHI"]
 
 MODE = "atlas_runtime"
 #: Albedo table size: M values of mu = n.v, P of the folded view azimuth.
@@ -67,6 +67,19 @@ def _lobe_directions(mu, phi):
     return np.stack([sin * np.cos(phi), sin * np.sin(phi), mu], -1)
 
 
+def check(spec, budget=19):
+    """The lobe and pattern ``pack`` would use for BRDF ``spec`` and a sample
+    budget, without the work: (bake.sampling.Lobe, bake.sampling.Pattern), or
+    BakeError (a BRDF with no GGX lobe, a budget no pattern gives)."""
+    model = brdf.parse(spec)
+    lobe = lobe_of(model)
+    if lobe.kind != "ggx":
+        raise BakeError(f"runtime sampling in shader nodes samples GGX lobes (ggx, "
+                        f"principled_metallic, ggx_multiscatter), not {lobe.kind} "
+                        f"({model.spec})")
+    return lobe, pattern_for_budget(budget, lobe.anisotropic)
+
+
 def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi0=None,
          bias=None):
     """(atlas, meta) of a probe for runtime sampling of BRDF ``spec`` (module doc).
@@ -76,15 +89,10 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     BakeError for a BRDF with no GGX lobe (the nodes sample GGX's visible normals).
     """
     model = brdf.parse(spec)
-    lobe = lobe_of(model)
-    if lobe.kind != "ggx":
-        raise BakeError(f"runtime sampling in shader nodes samples GGX lobes (ggx, "
-                        f"principled_metallic, ggx_multiscatter), not {lobe.kind} "
-                        f"({model.spec})")
+    lobe, plan = check(spec, budget)
     _, default_xi0, default_bias = DEFAULTS["ggx"]
     xi0 = default_xi0 if xi0 is None else float(xi0)
     bias = default_bias if bias is None else float(bias)
-    plan = pattern_for_budget(budget, lobe.anisotropic)
     levels, meta = pack_levels(probe, layout, height, filter)
     height, width = meta["slice_height"], meta["slice_width"]
     count_phi = ALBEDO_PHI if lobe.anisotropic else 1

@@ -16,13 +16,16 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
     key = {"spec": material_settings.brdf_spec(), "method": material_settings.method,
            "slices": material_settings.slices, "size": material_settings.map_size,
            "size_mode": material_settings.size_mode,
-           "lobes": material_settings.lobes if material_settings.method == "3d" else 1,
+           "lobes": (material_settings.lobes
+                     if material_settings.method in ("3d", "hybrid") else 1),
            "diffuse": [round(c, 6) for c in material_settings.diffuse],
            "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
                       material_settings.lamp_size_h, material_settings.lamp_method,
                       material_settings.lamp_terms]
                      if material_settings.lamps and material_settings.lamp_path else None),
            "probe": probe_key}
+    if material_settings.method in ("runtime", "hybrid"):
+        key["samples"] = material_settings.samples
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -54,11 +57,14 @@ def bake_status(material_settings, probe_path) -> str:
         return "missing"
     if settings.lamp_path and not Path(settings.lamp_path).exists():
         return "missing"
+    if settings.runtime_path and not Path(settings.runtime_path).exists():
+        return "missing"
     if any(material_settings.diffuse) and not (
             material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):
         return "missing"
     for path, written in stamps(material_settings.bake_stamp).items():
-        if path in (settings.bake_path, settings.diffuse_path, settings.lamp_path) and \
+        if path in (settings.bake_path, settings.diffuse_path, settings.lamp_path,
+                    settings.runtime_path) and \
                 stamp(path) != written:
             return "damaged"
     if material_settings.bake_hash != bake_inputs_hash(material_settings, probe_path):

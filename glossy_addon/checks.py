@@ -4,7 +4,7 @@ Each failure is one BakeError naming the material and the field, raised
 before a file is written or a property changed (bake_materials._prepare).
 """
 
-from ..bake import brdf, separable
+from ..bake import brdf, sampling_runtime, separable
 from ..bake.errors import BakeError
 from ..bake.resolution import MIN_ROWS
 
@@ -18,11 +18,11 @@ SLICES_RANGE = (2, 256)
 
 def atlas_rows(method: str, slices: int, lobes: int, rows: int) -> int:
     """Height (texels) of the atlas a bake of ``rows`` lat-long rows packs (bake.atlas)."""
-    if method == "3d":
+    if method in ("3d", "hybrid"):
         return slices * lobes * (rows + 2)
     if method == "2d":
         return rows + 2
-    return 0  # split-sum: a cube MIP strip, no taller than its faces
+    return 0  # split-sum: a cube MIP strip; runtime: at most 11 x 1026 rows (checks above)
 
 
 def check_settings(material) -> None:
@@ -41,7 +41,7 @@ def check_settings(material) -> None:
         raise BakeError(f"{material.name}: Fresnel IOR {settings.fresnel_ior:g} has no "
                         f"meaning here: use an index above 1 (glass 1.5), or 0 for a plain "
                         f"sum of glossy and diffuse")
-    lobes = settings.lobes if settings.method == "3d" else 1
+    lobes = settings.lobes if settings.method in ("3d", "hybrid") else 1
     if settings.size_mode == "FIXED":
         rows = atlas_rows(settings.method, settings.slices, lobes, settings.map_size)
         if rows > TEXTURE_LIMIT:
@@ -51,11 +51,18 @@ def check_settings(material) -> None:
                 f"{settings.map_size} rows make a {rows}-row texture, past the GPU's "
                 f"{TEXTURE_LIMIT}-row limit (EEVEE would render it wrong): use a map size "
                 f"of at most {fits}, fewer slices, or Auto")
-    elif settings.method == "3d" and atlas_rows("3d", settings.slices, lobes, MIN_ROWS) > \
+    elif settings.method in ("3d", "hybrid") and \
+            atlas_rows("3d", settings.slices, lobes, MIN_ROWS) > \
             TEXTURE_LIMIT:
         raise BakeError(f"{material.name}: {settings.slices} slices x {lobes} lobes do not "
                         f"fit the GPU's {TEXTURE_LIMIT}-row texture limit at any map size")
-    brdf.parse(settings.brdf_spec())  # a bad spec is refused here, with its own message
+    model = brdf.parse(settings.brdf_spec())  # a bad spec: refused here, with its message
+    if settings.method in ("runtime", "hybrid"):
+        try:
+            sampling_runtime.check(model.spec, settings.samples)
+        except BakeError as error:
+            raise BakeError(f"{material.name}: {settings.method} method: {error} (choose the "
+                            f"3D Map)") from None
     if settings.lamps:
         try:
             separable.check_arguments(settings.lamp_size, settings.lamp_terms,

@@ -306,20 +306,21 @@ def _factor_value(b, light, path):
 
 
 # --- the material's lamp term ---------------------------------------------------------------
-def lamp_terms(b, image, meta, lamps, diffuse_colour=None):
+def lamp_terms(b, image, meta, lamps, diffuse_colour=None, tangent=("RADIAL", "Z")):
     """Add the lamp terms to the material being built by ``b``: returns (glossy,
     diffuse) colour sockets (diffuse None without ``diffuse_colour``), summed
     over ``lamps``. ``image``: the bake.separable.pack atlas; ``meta``: its
-    metadata."""
+    metadata; ``tangent``: the Tangent node's setting (("RADIAL", axis) or
+    ("UV_MAP", name))."""
     size, terms = float(meta["size"]), int(meta["terms"])
     size_h = float(meta.get("size_h", meta["size"]))
     tile_g, tile_h = int(meta["tile_g"]), int(meta["tile_h"])
     height, width = tile_g + tile_h, terms * max(tile_g, tile_h)
     scale = meta["scale"]
     geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
-    tangent = b._place(b.nodes.new("ShaderNodeTangent"))
-    tangent.direction_type = "RADIAL"
-    tangent.axis = "Z"
+    from .sampling_nodes import tangent_socket
+
+    tangent_output = tangent_socket(b, tangent)
     coords_tree = coords_group(meta["parameterization"])
     glossy = diffuse = None
 
@@ -375,7 +376,7 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None):
         coords = b._place(b.nodes.new("ShaderNodeGroup"))
         coords.node_tree = coords_tree
         for socket, value in (("Normal", geometry.outputs["Normal"]),
-                              ("Tangent", tangent.outputs["Tangent"]),
+                              ("Tangent", tangent_output),
                               ("Incoming", geometry.outputs["Incoming"]),
                               ("Light", lamp.outputs["Light"]), ("Size", size),
                               ("H Size", size_h),

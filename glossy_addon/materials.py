@@ -39,3 +39,24 @@ def restore_original(material):
     original.use_fake_user = False
     bpy.data.materials.remove(material)
     return original
+
+
+def effective_tangent(material, obj):
+    """(tangent, warning or None): the material's tangent setting (("RADIAL", axis)
+    or ("UV_MAP", name)) as ``obj`` can give it; a UV tangent on a mesh without
+    that UV map falls back to radial about Z (Cycles' default), with a warning
+    when the lobe is anisotropic (where the tangent matters)."""
+    from ..bake import brdf
+
+    tangent = material.glossy.tangent()
+    if tangent[0] != "UV_MAP":
+        return tangent, None
+    layers = obj.data.uv_layers if obj is not None and obj.type == "MESH" else ()
+    if len(layers) and (not tangent[1] or tangent[1] in layers):
+        return tangent, None
+    warning = None
+    if not brdf.parse(material.glossy.brdf_spec()).isotropic:
+        missing = f"no UV map '{tangent[1]}'" if tangent[1] else "no UV map"
+        warning = (f"{material.name}: {obj.name if obj else 'the object'} has {missing}: the "
+                   f"anisotropic tangent falls back to radial about Z")
+    return ("RADIAL", "Z"), warning

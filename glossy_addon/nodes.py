@@ -210,7 +210,8 @@ def _group_node(b, tree, values):
     return node.outputs
 
 
-def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None):
+def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
+                 runtime=None, tangent=("RADIAL", "Z")):
     """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
 
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
@@ -222,6 +223,11 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     ``lamps``: (image, meta, lamp objects, diffuse colour) of a bake.separable
     atlas: the lamps' glossy and diffuse terms (glossy_addon.lamps) join the
     environment's before that blend. ``image`` None: lamps only (no environment).
+    ``runtime``: (image, meta) of a bake.sampling_runtime texture, sampled per
+    pixel along ``tangent`` (("RADIAL", axis) or ("UV_MAP", name), Blender's
+    Tangent node) by glossy_addon.sampling_nodes; with ``image`` too, the Hybrid:
+    (1 - w) map + w runtime, w(mu) the knots in the runtime meta's
+    ``blend_mu`` / ``blend_weight`` (bake.hybrid.blend_curve).
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -229,13 +235,22 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     tree.nodes.clear()
     b = _Builder(tree)
     value = _environment(b, image, meta) if image is not None else None
+    if runtime is not None:
+        from .sampling_nodes import hybrid_value, runtime_value, tangent_socket
+
+        geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+        sampled = runtime_value(b, *runtime, geometry.outputs["Normal"],
+                                geometry.outputs["Incoming"], tangent_socket(b, tangent))
+        value = sampled if value is None else hybrid_value(
+            b, runtime[1], geometry.outputs["Normal"], geometry.outputs["Incoming"], value,
+            sampled)
     lamp_diffuse = None
     if lamps:
         from .lamps import lamp_terms
         lamp_image, lamp_meta, lamp_objects, diffuse_colour = lamps
         lamp_glossy, lamp_diffuse = lamp_terms(
             b, lamp_image, lamp_meta, lamp_objects,
-            diffuse_colour if diffuse is not None else None)
+            diffuse_colour if diffuse is not None else None, tangent)
         if lamp_glossy is not None:
             value = lamp_glossy if value is None else _add(b, value, lamp_glossy)
     if value is None:

@@ -152,12 +152,29 @@ class GLOSSY_PT_material(bpy.types.Panel):
         else:
             if settings.model != "lambert":
                 column.prop(settings, "roughness")
+            if settings.model in ("ggx", "beckmann", "ashikhmin_shirley"):
+                column.prop(settings, "anisotropy")
+                if settings.anisotropy != 0.0:
+                    column.prop(settings, "rotation")
+                    row = column.row(align=True)
+                    row.prop(settings, "tangent_type", text="")
+                    if settings.tangent_type == "RADIAL":
+                        row.prop(settings, "tangent_axis", text="")
+                    elif context.object is not None and context.object.type == "MESH":
+                        row.prop_search(settings, "tangent_uv_map", context.object.data,
+                                        "uv_layers", text="")
+                    else:
+                        row.prop(settings, "tangent_uv_map", text="")
             column.prop(settings, "color")
         layout.prop(settings, "diffuse")
         layout.prop(settings, "fresnel_ior")
-        column = _props(layout, settings, ("method", "slices"))
-        if settings.method == "3d":
+        column = _props(layout, settings, ("method",))
+        if settings.method in ("3d", "2d", "hybrid"):
+            column.prop(settings, "slices")
+        if settings.method in ("3d", "hybrid"):
             column.prop(settings, "lobes")
+        if settings.method in ("runtime", "hybrid"):
+            column.prop(settings, "samples")
         column.prop(settings, "size_mode")
         column.prop(settings, "map_size",
                     text="Max Map Size" if settings.size_mode == "AUTO" else "Map Size")

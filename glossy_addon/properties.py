@@ -153,8 +153,37 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     method: bpy.props.EnumProperty(
         name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
                               ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)"),
-                              ("split-sum", "Split Sum", "GGX MIP chain + DFG (GGX only)")],
+                              ("split-sum", "Split Sum", "GGX MIP chain + DFG (GGX only)"),
+                              ("runtime", "Runtime Sampling", "Regular sampling of the GGX "
+                               "lobe per pixel from pre-blurred probe levels (Kurt et al.): "
+                               "anisotropic lobes, exact at grazing views"),
+                              ("hybrid", "Hybrid", "3D map and runtime sampling blended per "
+                               "pixel by their measured errors (bake.hybrid); runtime "
+                               "sampling alone for anisotropic lobes")],
         default="3d")
+    anisotropy: bpy.props.FloatProperty(
+        name="Anisotropy", description="Cycles' Anisotropy (GGX, Beckmann, Ashikhmin-Shirley): "
+        "stretches the lobe along the tangent (> 0) or across it (< 0)",
+        default=0.0, min=-1.0, max=1.0)
+    rotation: bpy.props.FloatProperty(
+        name="Rotation", description="Cycles' Rotation of the anisotropic lobe about the "
+        "normal, in turns", default=0.0, min=0.0, max=1.0)
+    tangent_type: bpy.props.EnumProperty(
+        name="Tangent", description="The anisotropic lobe's tangent, as Cycles' Tangent node "
+        "gives it",
+        items=[("RADIAL", "Radial", "Around an axis of the object"),
+               ("UV_MAP", "UV Map", "Along a UV map's U direction")],
+        default="RADIAL")
+    tangent_axis: bpy.props.EnumProperty(
+        name="Axis", items=[("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")], default="Z")
+    tangent_uv_map: bpy.props.StringProperty(
+        name="UV Map", description="UV map of the tangent (empty: the active render UV map)")
+    samples: bpy.props.IntProperty(
+        name="Samples", description="Runtime samples per pixel (the regular pattern with the "
+        "closest count)", default=19, min=1, max=64)
+    runtime_path: bpy.props.StringProperty(
+        name="Baked Sampling Levels", description="The runtime-sampling texture of a Hybrid "
+        "bake", subtype="FILE_PATH")
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
     lobes: bpy.props.IntProperty(name="Lobes", description="Lobes per slice (3D map)",
                                  default=1, min=1, max=4)
@@ -251,7 +280,16 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
             return f"phong:n={self.exponent:g},ks={color}"
         if self.model == "lambert":
             return f"lambert:color={color}"
-        return f"{self.model}:roughness={self.roughness:g},color={color}"
+        lobe = ""
+        if self.anisotropy != 0.0:
+            lobe = f",anisotropy={self.anisotropy:g},rotation={self.rotation:g}"
+        return f"{self.model}:roughness={self.roughness:g}{lobe},color={color}"
+
+    def tangent(self) -> tuple:
+        """("RADIAL", axis) or ("UV_MAP", name): the Tangent node's settings."""
+        if self.tangent_type == "UV_MAP":
+            return ("UV_MAP", self.tangent_uv_map)
+        return ("RADIAL", self.tangent_axis)
 
     @classmethod
     def register(cls):

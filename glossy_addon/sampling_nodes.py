@@ -7,7 +7,8 @@ turns the sample's disk point into a world direction, its weight and its MIP
 level. The material holds what node groups cannot: the image taps (four
 Closest taps per stored level, bilinear weights from ``Glossy Atlas Taps v1``,
 two levels per sample) and the sum over the samples, normalised and scaled by
-the tabulated albedo. Not yet offered by the add-on's UI (issue 11, item 4).
+the tabulated albedo. nodes.build_lookup attaches it (methods Runtime Sampling
+and Hybrid); :func:`hybrid_value` blends it with the 3D map.
 """
 
 import math
@@ -213,6 +214,34 @@ def _albedo(b, image, meta, wo):
     return b.mix(fy, top, bottom)
 
 
+def tangent_socket(b, tangent):
+    """Blender's Tangent node set to ("RADIAL", axis) or ("UV_MAP", name): its output."""
+    node = b._place(b.nodes.new("ShaderNodeTangent"))
+    node.direction_type = tangent[0]
+    if tangent[0] == "RADIAL":
+        node.axis = tangent[1]
+    else:
+        node.uv_map = tangent[1]
+    return node.outputs["Tangent"]
+
+
+def hybrid_value(b, meta, normal, view, map_value, runtime_value_socket):
+    """(1 - w) map + w runtime, w(mu = n.v) piecewise linear through the runtime
+    meta's knots (bake.hybrid.blend_curve's arithmetic)."""
+    centres = [float(c) for c in meta["blend_mu"]]
+    weights = [float(w) for w in meta["blend_weight"]]
+    mu = b.vec("DOT_PRODUCT", b.vec("NORMALIZE", normal), b.vec("NORMALIZE", view))
+    weight = weights[0]
+    for i in range(len(centres) - 1):
+        step = weights[i + 1] - weights[i]
+        if step == 0.0:
+            continue
+        t = b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", b.math(
+            "SUBTRACT", mu, centres[i]), centres[i + 1] - centres[i]), 0.0), 1.0)
+        weight = b.math("ADD", b.math("MULTIPLY", t, step), weight)
+    return b.mix(weight, map_value, runtime_value_socket)
+
+
 def build_runtime(material, image, meta, tangent=("RADIAL", "Z")):
     """Replace ``material``'s nodes by the runtime-sampling lookup of ``image``
     (a bake.sampling_runtime atlas). tangent: ("RADIAL", axis) or ("UV_MAP", name),
@@ -222,14 +251,8 @@ def build_runtime(material, image, meta, tangent=("RADIAL", "Z")):
     tree.nodes.clear()
     b = _Builder(tree)
     geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
-    tangent_node = b._place(tree.nodes.new("ShaderNodeTangent"))
-    tangent_node.direction_type = tangent[0]
-    if tangent[0] == "RADIAL":
-        tangent_node.axis = tangent[1]
-    else:
-        tangent_node.uv_map = tangent[1]
     value = runtime_value(b, image, meta, geometry.outputs["Normal"],
-                          geometry.outputs["Incoming"], tangent_node.outputs["Tangent"])
+                          geometry.outputs["Incoming"], tangent_socket(b, tangent))
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))

@@ -23,10 +23,12 @@ CYCLES_DISTRIBUTIONS = {"ggx": "GGX", "beckmann": "BECKMANN",
                         "ashikhmin_shirley": "ASHIKHMIN_SHIRLEY", "ggx_multiscatter": "MULTI_GGX"}
 
 
-def truth_material(material):
+def truth_material(material, tangent=None):
     """(a new material with the true BSDF of ``material``'s Glossy settings, None) or
     (None, why Cycles cannot render it). Glossy BSDF (plus a Diffuse BSDF for the
-    diffuse colour, mixed by a Fresnel node when Fresnel IOR > 1, as the lookup is)."""
+    diffuse colour, mixed by a Fresnel node when Fresnel IOR > 1, as the lookup is).
+    tangent: ("RADIAL", axis) or ("UV_MAP", name) for an anisotropic lobe (default:
+    the material's own, glossy_addon.materials.effective_tangent)."""
     settings = material.glossy
     try:
         model = brdf.parse(settings.brdf_spec())
@@ -56,6 +58,15 @@ def truth_material(material):
             surface.inputs["Roughness"].default_value = model.params["roughness"]
             surface.inputs["Anisotropy"].default_value = model.params["anisotropy"]
             surface.inputs["Rotation"].default_value = model.params["rotation"]
+            tangent = tangent or settings.tangent()
+            if tangent != ("RADIAL", "Z"):  # unconnected is Cycles' radial about Z
+                node = tree.nodes.new("ShaderNodeTangent")
+                node.direction_type = tangent[0]
+                if tangent[0] == "RADIAL":
+                    node.axis = tangent[1]
+                else:
+                    node.uv_map = tangent[1]
+                tree.links.new(node.outputs["Tangent"], surface.inputs["Tangent"])
         surface.inputs["Color"].default_value = (*model.params["color"], 1.0)
     if any(settings.diffuse) and name != "lambert":
         diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
@@ -75,6 +86,22 @@ def truth_material(material):
         surface = mix
     tree.links.new(surface.outputs[0], output.inputs["Surface"])
     return truth, None
+
+
+def radial_tangents(obj, positions, axis="Z"):
+    """(N, 3) world tangents of Blender's radial Tangent node about ``axis`` at world
+    points (N, 3) of ``obj``: the generated coordinates' offset from the bounding
+    box's centre, turned a quarter about the axis in object space (as Cycles'
+    node_tangent), carried to world space. The caller orthogonalises against n."""
+    matrix = np.array(obj.matrix_world)
+    local = (np.linalg.inv(matrix) @ np.c_[positions, np.ones(len(positions))].T).T[:, :3]
+    corners = np.array([tuple(c) for c in obj.bound_box])
+    low, high = corners.min(axis=0), corners.max(axis=0)
+    generated = (local - low) / np.maximum(high - low, 1e-12) - 0.5
+    gx, gy, gz = generated.T
+    zero = np.zeros_like(gx)
+    tangent = {"X": (zero, -gz, gy), "Y": (gz, zero, -gx), "Z": (-gy, gx, zero)}[axis]
+    return np.stack(tangent, -1) @ matrix[:3, :3].T
 
 
 def reference_parts(material):

@@ -6,14 +6,14 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import atlas, brdf, exr, outputs, prefilter, separable
+from ..bake import atlas, brdf, exr, hybrid, outputs, prefilter, sampling_runtime, separable
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled
 from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
 from ..glossy_addon.lamps import lamp_set, scene_lamps
-from ..glossy_addon.materials import stash_original
+from ..glossy_addon.materials import effective_tangent, stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
@@ -58,23 +58,28 @@ def _factor_steps(settings):
 
 
 def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,
-                probe_path, obj_name, reason, rows=0):
+                probe_path, obj_name, reason, rows=0, runtime_path=None, runtime=None):
     """Write one material's files together (all or none, each whole) and record
     them in its settings; a generator (it yields nothing) so that steps can
-    ``yield from`` it. Returns the step's message."""
+    ``yield from`` it. ``runtime``: the (image, meta) of a Hybrid's second
+    texture (bake.sampling_runtime), written to ``runtime_path``. Returns the
+    step's message."""
     settings = material.glossy
     stamp_meta = {"generator": "glossy-blender", "probe": probe_path, "material": material.name}
     written = []
     with outputs.Staged() as staged:
-        if environment is not None:
-            image, atlas_meta = environment
+        for target_path, texture in ((path, environment), (runtime_path, runtime)):
+            if texture is None:
+                continue
+            image, atlas_meta = texture
             half = atlas.storage_precision(image) == "half"
-            if not half:
+            if not half and "32-bit" not in reason:
                 reason += "; kept as 32-bit float (brighter than a half float's 65504)"
             atlas_meta.update({**stamp_meta, "size_reason": reason,
                                "precision": "half" if half else "float32"})
-            staged.add(path, lambda target: exr.write(target, image, atlas_meta, half=half))
-            written.append(path)
+            staged.add(target_path, lambda target, image=image, atlas_meta=atlas_meta,
+                       half=half: exr.write(target, image, atlas_meta, half=half))
+            written.append(target_path)
         if diffuse is not None:
             diffuse_image, diffuse_meta = diffuse
             diffuse_meta.update({**stamp_meta, "precision": "float32"})
@@ -87,6 +92,7 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
             staged.add(lamp_path, lambda target: exr.write(target, lamp_image, lamp_meta))
             written.append(lamp_path)
     settings.bake_path = str(path) if environment is not None else ""
+    settings.runtime_path = str(runtime_path) if runtime is not None else ""
     settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
     settings.lamp_path = str(lamp_path) if factors is not None else ""
     settings.lamp_error = separable.error(factors, settings.brdf_spec()) \
@@ -102,6 +108,38 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
     settings.bake_time = time.time()
     return f"baked {material.name}: {reason}"
     yield  # a generator
+
+
+def runtime_height(settings, probe, layout) -> tuple:
+    """(rows, why) of the runtime-sampling level stack: the probe's own detail (a
+    lat-long twice a cube face's rows), at most Map Size (Auto) or Map Size
+    (Fixed), as a power of two (the level chain halves it)."""
+    natural = 2 * probe.shape[0] if layout == "cube" else probe.shape[0]
+    if settings.size_mode == "FIXED":
+        wanted, why = settings.map_size, "set by Map Size"
+    elif natural > settings.map_size:
+        wanted, why = settings.map_size, f"the probe's {natural} capped by Max Map Size"
+    else:
+        wanted, why = natural, "the probe's own detail"
+    rows = 1 << max(2, int(np.floor(np.log2(max(wanted, 4)))))
+    if rows != wanted:
+        why += f", rounded down to a power of two from {wanted}"
+    return rows, why
+
+
+def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid):
+    """The runtime-sampling texture (bake.sampling_runtime.pack) of ``rows``
+    lat-long rows as steps (no bpy: runs on a worker thread): one message, then
+    ((image, meta), reason); a Hybrid's meta carries its w(mu) knots
+    (bake.hybrid.weight_curve at the lobe's roughness)."""
+    yield 0.0, f"pre-blurring {rows}-row probe levels and the albedo table for runtime sampling"
+    image, meta = sampling_runtime.pack(probe, spec, layout=layout, budget=samples, height=rows)
+    if for_hybrid:
+        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])))
+        meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
+    reason = (f"runtime sampling: {len(meta['prob'])} samples over {meta['levels']} levels of "
+              f"{rows} rows ({why})")
+    return (image, meta), reason
 
 
 def _object_with_probe(context):
@@ -172,40 +210,54 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             path = ownership.claim(folder, stem, f"_{settings.method}.exr", material, taken)
             taken.add(path)
             diffuse_path = lamp_path = None
+            runtime_path = None
+            isotropic = brdf.parse(settings.brdf_spec()).isotropic
+            if settings.method == "hybrid" and isotropic:
+                runtime_path = ownership.claim(folder, stem, "_hybrid_runtime.exr", material,
+                                               taken)
+                taken.add(runtime_path)
             if any(settings.diffuse):
                 diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
                 taken.add(diffuse_path)
             if wants_lamps:
                 lamp_path = ownership.claim(folder, stem, "_lamps.exr", material, taken)
                 taken.add(lamp_path)
-            if not brdf.parse(settings.brdf_spec()).isotropic:
+            if not isotropic and settings.method == "hybrid":
+                self._warnings.append(
+                    f"{material.name}: anisotropic BRDF: the Hybrid uses runtime sampling "
+                    f"alone (the 3D map needs an isotropic lobe)")
+            elif not isotropic and settings.method != "runtime":
                 if not wants_lamps:
                     raise BakeError(
                         f"{material.name}: {settings.brdf_spec()} is anisotropic: the "
-                        f"environment map needs an isotropic BRDF; add a lamp and turn on Lamps "
-                        f"to bake its lamp response")
+                        f"{settings.method} map needs an isotropic BRDF; choose the Runtime "
+                        f"Sampling or Hybrid method (or add a lamp and turn on Lamps for its "
+                        f"lamp response alone)")
                 self._warnings.append(
-                    f"{material.name}: anisotropic BRDF: lamps only (Glossy's environment "
-                    f"maps need an isotropic BRDF), the environment reflection is left out")
+                    f"{material.name}: anisotropic BRDF: lamps only (the {settings.method} map "
+                    f"needs an isotropic BRDF; Runtime Sampling and Hybrid reflect the "
+                    f"environment), the environment reflection is left out")
             others = ownership.shared_probe_users(material, obj)
             if others:
                 self._warnings.append(
                     f"{material.name} is also used by {', '.join(others)}, whose probe differs: "
                     f"one material holds one bake, so all its users now show {obj.name}'s "
                     f"(give each object its own copy of the material)")
-            todo.append((material.name, path, diffuse_path, lamp_path))
+            todo.append((material.name, path, diffuse_path, lamp_path, runtime_path))
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
     def _bake_steps(material, path, diffuse_path, lamp_path, probe, meta, probe_path,
-                    obj_name):
+                    obj_name, runtime_path=None):
         """One material's bake as steps: yields (fraction, message) after the fit, each
         batch of slices and the diffuse map; writes the files only at the end, both
         or neither, so a bake stopped between steps leaves nothing. Returns the step's
         message."""
         settings = material.glossy
         spec = settings.brdf_spec()
-        if not brdf.parse(spec).isotropic:  # lamps only (checked in _prepare)
+        isotropic = brdf.parse(spec).isotropic
+        sampled = settings.method == "runtime" or (settings.method == "hybrid" and not isotropic)
+        if not isotropic and not sampled:  # lamps only (checked in _prepare)
             path = diffuse_path = None
         factors = None
         if lamp_path is not None:
@@ -219,7 +271,16 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         auto = settings.size_mode == "AUTO"
         size = "auto" if auto else settings.map_size
         max_size = settings.map_size if auto else None
-        if settings.method == "split-sum":
+        runtime = None
+        if sampled or runtime_path is not None:
+            rows, why = runtime_height(settings, probe, layout)
+            runtime, runtime_reason = yield from _scaled(background_steps(_runtime_steps(
+                spec, settings.samples, rows, why, probe, layout, runtime_path is not None)),
+                0.1, 0.3 if runtime_path is not None else 0.95)
+        if sampled:
+            image, atlas_meta = runtime
+            rows, reason, runtime = atlas_meta["slice_height"], runtime_reason, None
+        elif settings.method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
             baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
                 probe, spec, "split-sum", face, layout=layout)), 0.1, 0.85)
@@ -227,11 +288,15 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
             baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
-                probe, spec, settings.method, size, slices=settings.slices,
-                lobes_count=settings.lobes if settings.method == "3d" else 1, layout=layout,
+                probe, spec, "3d" if settings.method == "hybrid" else settings.method, size,
+                slices=settings.slices,
+                lobes_count=settings.lobes if settings.method in ("3d", "hybrid") else 1,
+                layout=layout,
                 max_size=max_size)), 0.1, 0.85)
             image, atlas_meta = atlas.pack(baked)
             rows, reason = baked.meta["size"], baked.meta["size_reason"]
+            if runtime is not None:
+                reason += f"; {runtime_reason}"
         diffuse = None
         if diffuse_path is not None:
             color = "/".join(f"{c:g}" for c in settings.diffuse)
@@ -242,16 +307,18 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return (yield from _write_bake(material, path, (image, atlas_meta), diffuse,
                                        diffuse_path if diffuse is not None else None,
                                        lamp_path, factors, probe_path, obj_name, reason,
-                                       int(rows)))
+                                       int(rows), runtime_path, runtime))
 
     def execute(self, context):
         try:
             obj, probe, meta, probe_path, todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                for index, (name, path, diffuse_path, lamp_path) in enumerate(todo):
+                for index, (name, path, diffuse_path, lamp_path, runtime_path) in \
+                        enumerate(todo):
                     progress(index / max(len(todo), 1), f"baking {name}")
                     run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
-                                               lamp_path, probe, meta, probe_path, obj.name),
+                                               lamp_path, probe, meta, probe_path, obj.name,
+                                               runtime_path),
                               scaled(progress, index / len(todo), (index + 1) / len(todo)))
                     progress((index + 1) / len(todo), f"baked {name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
@@ -274,10 +341,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return todo
 
     def _run_step(self, context, step):
-        name, path, diffuse_path, lamp_path = step
+        name, path, diffuse_path, lamp_path, runtime_path = step
         steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
-                                 self._probe,
-                                 self._meta, self._probe_path, self._object_name)
+                                 self._probe, self._meta, self._probe_path, self._object_name,
+                                 runtime_path)
         return prefixed_steps(f"{name}: ", steps)
 
     def _done_message(self):
@@ -299,7 +366,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj, _ = _object_with_probe(context)
-        attached = 0
+        attached, warnings = 0, []
         try:
             for material in _materials(obj):  # every check before the first change
                 if material.glossy.bake_path or material.glossy.lamp_path:
@@ -314,10 +381,20 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 path = settings.bake_path
                 if not path and not settings.lamp_path:
                     continue
-                image = meta = diffuse = lamp_terms = None
+                image = meta = diffuse = lamp_terms = runtime = None
                 if path:
                     _, meta = exr.read(path)
                     image = load_atlas(path, precision=meta.get("precision", "float32"))
+                    if meta.get("mode") == sampling_runtime.MODE:  # Runtime Sampling
+                        runtime, image, meta = (image, meta), None, None
+                if settings.runtime_path:  # the Hybrid's second texture
+                    _, runtime_meta = exr.read(settings.runtime_path)
+                    runtime = (load_atlas(settings.runtime_path,
+                                          precision=runtime_meta.get("precision", "float32")),
+                               runtime_meta)
+                tangent, warning = effective_tangent(material, obj)
+                if warning:
+                    warnings.append(warning)
                 if settings.diffuse_path:
                     _, diffuse_meta = exr.read(settings.diffuse_path)
                     diffuse = (load_atlas(settings.diffuse_path,
@@ -328,7 +405,8 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     lamp_terms = (load_atlas(settings.lamp_path, precision="float32"), lamp_meta,
                                   lamps, tuple(settings.diffuse))
                 stash_original(material)
-                build_lookup(material, image, meta, diffuse, settings.fresnel_ior, lamp_terms)
+                build_lookup(material, image, meta, diffuse, settings.fresnel_ior, lamp_terms,
+                             runtime=runtime, tangent=tangent)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1
@@ -340,6 +418,8 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             return {"CANCELLED"}
         for name, reason in skipped:
             self.report({"WARNING"}, f"Lamp {name} skipped: {reason}")
+        for warning in warnings:
+            self.report({"WARNING"}, warning)
         self.report({"INFO"}, f"Glossy attached {attached} material(s)"
                     + (f" lit by {len(lamps)} lamp(s)" if lamps else ""))
         return {"FINISHED"}

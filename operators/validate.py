@@ -25,6 +25,7 @@ from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
 from ..bake.progress import prefixed_steps, run_steps
 from ..glossy_addon import validation as glue
+from ..glossy_addon.materials import effective_tangent
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
@@ -114,7 +115,10 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             for material in materials:
                 if material.name in self._truth:
                     continue
-                truth, why = glue.truth_material(material)
+                tangent, warning = effective_tangent(material, obj)
+                if warning:
+                    self._notes.append(warning)
+                truth, why = glue.truth_material(material, tangent)
                 if truth is not None:
                     changes.created(bpy.data.materials, truth)
                 else:
@@ -188,9 +192,16 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
                 if material.glossy.fresnel_ior > 1.0 else None
             total = np.zeros((len(normals), 3))
+            tangent, _ = effective_tangent(material, obj)
+            tangents = None  # bake.reference's hint frame: the lobe is isotropic
+            if tangent[0] == "RADIAL":
+                tangents = glue.radial_tangents(obj, self._positions[index_pass], tangent[1])
+            elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
+                self._notes.append(f"{material.name}: the NumPy reference orients the "
+                                   f"anisotropic lobe by a fixed hint, not the UV tangent")
             for model, weight in glue.reference_parts(material):
                 part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
-                    model, probe, layout, normals, views))
+                    model, probe, layout, normals, views, tangents=tangents))
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
                 elif weight == "one_minus_fresnel":

@@ -23,6 +23,18 @@ def test_the_committed_table_is_whole_and_its_weights_interpolate_back():
                                    table.weight[i], atol=1e-12)
 
 
+def test_the_node_curve_is_the_tables_interpolation():
+    """blend_curve (the shader nodes' arithmetic over a material's knots) equals
+    blend_weight at every mu, inside the bins and past the end centres, for
+    roughness values between the table's."""
+    table = hybrid.load_table()
+    mu = np.linspace(-0.2, 1.0, 241)
+    for roughness in (0.1, 0.17, 0.3, 0.44, 0.6):
+        centres, weights = hybrid.weight_curve(roughness, table)
+        np.testing.assert_allclose(hybrid.blend_curve(mu, centres, weights),
+                                   hybrid.blend_weight(mu, roughness, table), atol=1e-12)
+
+
 def test_a_missing_table_is_one_clear_error(tmp_path):
     with pytest.raises(BakeError, match="benchmarks/hybrid.py"):
         hybrid.load_table(tmp_path / "nothing.json")

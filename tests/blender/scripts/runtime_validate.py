@@ -1,0 +1,77 @@
+"""Runtime Sampling and Hybrid through the add-on's operators, measured by glossy.validate.
+
+    python runtime_validate.py HDRI WORKDIR RESULT.json [SIZE SAMPLES EEVEE_SAMPLES [SPHERES]]
+
+As a user's script: isolated spheres (ray visibility off, so none sees
+another), each with its own material and World Only probe (64 px faces),
+baked, attached and validated together (no scene camera: validation frames
+them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
+rotation]; the default is one brushed sphere (GGX 0.3, anisotropy 0.8,
+Runtime Sampling, tangent radial about Z). Writes the validation report's
+figures per sphere, the operators' reports and the attached node count.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
+size, samples, eevee_samples = (int(a) for a in (sys.argv[4:7] or (64, 64, 4)))
+spheres = json.loads(sys.argv[7]) if len(sys.argv) > 7 else \
+    [["Brushed", "runtime", 0.3, 0.8, 0.0]]
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+import glossy  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world  # noqa: E402
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glossy.register()
+scene = bpy.context.scene
+environment_world(scene, hdri)
+scene.render.resolution_x = scene.render.resolution_y = 100
+scene.glossy.validate_resolution = size
+scene.glossy.validate_samples = samples
+scene.glossy.validate_eevee_samples = eevee_samples
+result = {"reports": []}
+
+
+def run(operator):
+    try:
+        return sorted(operator())
+    except RuntimeError as error:  # an operator's ERROR report, in background mode
+        result["reports"].append(str(error).strip())
+        return ["CANCELLED"]
+
+
+bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))  # outputs go beside it
+objects = []
+for index, (name, method, roughness, anisotropy, rotation) in enumerate(spheres):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
+                                         location=(2.5 * index, 0.0, 0.0))
+    bpy.ops.object.shade_smooth()
+    obj = bpy.context.object
+    obj.name = name
+    obj.visible_glossy = obj.visible_diffuse = obj.visible_transmission = False
+    obj.glossy.probe_source = "WORLD"
+    obj.glossy.probe_size_mode = "FIXED"
+    obj.glossy.probe_resolution = 64
+    material = bpy.data.materials.new(name)
+    settings = material.glossy
+    settings.model, settings.method = "ggx", method
+    settings.roughness, settings.anisotropy, settings.rotation = roughness, anisotropy, rotation
+    obj.data.materials.append(material)
+    objects.append(obj)
+    result[name] = {"capture": run(bpy.ops.glossy.capture_probes),
+                    "bake": run(bpy.ops.glossy.bake_materials),
+                    "attach": run(bpy.ops.glossy.attach_materials),
+                    "nodes": len(material.node_tree.nodes),
+                    "bake_path": settings.bake_path, "runtime_path": settings.runtime_path,
+                    "size_reason": settings.size_reason}
+bpy.ops.object.select_all(action="SELECT")
+result["validate"] = run(bpy.ops.glossy.validate)
+report = json.loads((Path(scene.glossy.last_report).with_suffix(".json")).read_text()) \
+    if scene.glossy.last_report else {}
+for entry in report.get("objects", []):
+    result[entry["object"]]["figures"] = entry["figures"]
+result["notes"] = report.get("notes", [])
+result_path.write_text(json.dumps(result, indent=1, default=str))
