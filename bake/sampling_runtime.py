@@ -17,13 +17,26 @@ isotropic lobes.
 The constants (metadata): the lobe (``ax``, ``ay``, ``angle``), the density
 threshold ``xi0``, the MIP ``bias`` and, per sample j, its point (p1, p2) on
 the unit disk of Heitz's visible-normal sampler and the probability ``prob_j``
-its pattern cell holds (bake.sampling's ``vndf`` warp, GGX's default).
+its pattern cell holds. Isotropic lobes use the paper's regular pattern
+(bake.sampling's ``vndf`` warp, GGX's default; ``pattern`` "regular").
+Anisotropic lobes use a ``stretched`` lattice (:func:`stretched_pattern`),
+turned per pixel onto the direction in which the disk-to-lobe map stretches
+most (:func:`_stretch_angle`). This departs from the paper, which keeps its
+isotropic pattern and filters each sample's elongated footprint with the GPU's
+anisotropic filtering (eqs. 14-16). Shader nodes have one isotropic lookup per
+tap, and an elongated footprint read that way leaves gaps along the lobe.
+Measured against the brute-force integral with 14 samples, GGX 0.3 with
+anisotropy 0.8, a 64^2-face probe, and a head-on sphere:
+- night.exr: 0.44 with the regular pattern, 0.18 with the stretched one;
+- city.exr: 0.51 and 0.39;
+- sunset.exr: 0.115 and 0.089.
 
 Per pixel (world normal n, view v, tangent t; float32 in the nodes):
     frame x = t orthogonalised against n, y = n x x, turned by ``angle``;
     wo = (v.x, v.y, max(v.n, 1e-3)) normalised (the silhouette's grazing
     normals read the horizon rather than nothing);
-    per sample: h_j = VNDF(wo, p_j), wi_j = 2 (wo.h_j) h_j - wo,
+    per sample: h_j = VNDF(wo, R p_j) (R the stretched pattern's turn, else 1),
+    wi_j = 2 (wo.h_j) h_j - wo,
     w_j = prob_j G2(wi_j, wo) (= f cos Omega_j up to the factor G1(wo) and the
     tint, which cancel in the normalisation), 0 where wi_j,z <= 0,
     Omega_j = prob_j 4 wo_z / (G1(wo) D(h_j)),
@@ -80,8 +93,47 @@ def check(spec, budget=19):
     return lobe, pattern_for_budget(budget, lobe.anisotropic)
 
 
+def stretched_pattern(count, aspect, resolution=512):
+    """(points (N, 2), probabilities (N,)) of a lattice on the unit disk whose cells
+    are ``aspect`` times as tall (y) as wide (x): R rows of equal height, each
+    cut into strips of equal area, as many per row as its share of the disk's
+    area (largest remainders; at least one), so that each cell holds about
+    1 / count of the disk. Each point is its cell's centroid and its probability
+    the cell's area over pi (a ``resolution``^2 grid integrates both).
+
+    Used for anisotropic lobes, turned per pixel so that its dense axis lies
+    along the direction in which the disk-to-lobe map stretches most (module
+    doc): the cells then become about round on the sphere, which one isotropic
+    MIP lookup per sample filters without gaps.
+    """
+    count = int(count)
+    aspect = float(np.clip(aspect, 1.0, max(count, 1)))
+    rows = max(1, int(round(2.0 / np.sqrt(np.pi * aspect / count))))
+    g = (np.arange(resolution) + 0.5) / resolution * 2.0 - 1.0
+    gx, gy = np.meshgrid(g, g)
+    inside = gx * gx + gy * gy <= 1.0
+    gx, gy = gx[inside], gy[inside]
+    row = np.minimum(((gy + 1.0) * 0.5 * rows).astype(int), rows - 1)
+    share = np.bincount(row, minlength=rows) / len(gx) * count
+    per_row = np.maximum(np.floor(share).astype(int), 1)
+    for index in np.argsort(-(share - np.floor(share))):
+        if per_row.sum() >= count:
+            break
+        per_row[index] += 1
+    points, probs = [], []
+    for r in range(rows):
+        xs, ys = gx[row == r], gy[row == r]
+        columns, column, counts = np.unique(xs, return_inverse=True, return_counts=True)
+        middle = (np.cumsum(counts) - 0.5 * counts) / len(xs)  # whole grid columns per
+        cell = np.minimum((middle * per_row[r]).astype(int), per_row[r] - 1)[column]
+        for k in range(per_row[r]):  # strip, by the column's middle: mirror-symmetric
+            points.append((xs[cell == k].mean(), ys[cell == k].mean()))
+            probs.append(np.count_nonzero(cell == k) / len(gx))
+    return np.array(points), np.array(probs)
+
+
 def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi0=None,
-         bias=None):
+         bias=None, pattern="auto"):
     """(atlas, meta) of a probe for runtime sampling of BRDF ``spec`` (module doc).
 
     probe (H, W, 3) in ``layout``; budget: samples per pixel (the pattern with the
@@ -110,15 +162,21 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     extra_padded = np.concatenate([_pad(extra), np.zeros((height + 2, 1, 3), np.float32)], 1)
     extra_padded[1:1 + count_phi, 1:1 + ALBEDO_MU] = table  # exact, not the padding's means
     atlas = np.concatenate([levels, extra_padded], axis=0)
-    points = plan.points / plan.edge
-    prob = plan.cells / (np.pi * plan.edge ** 2)
+    if pattern == "auto":
+        pattern = "stretched" if lobe.anisotropic else "regular"
+    if pattern == "stretched":
+        points, prob = stretched_pattern(len(plan), max(lobe.mx, lobe.my) /
+                                         min(lobe.mx, lobe.my))
+    else:
+        points = plan.points / plan.edge
+        prob = plan.cells / (np.pi * plan.edge ** 2)
     meta.update({
         "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
         "mu": [0.0] * (meta["slices"] + 1), "offsets": [0.0] * (meta["slices"] + 1),
         "spec": model.spec, "kind": "ggx", "ax": float(lobe.mx), "ay": float(lobe.my),
         "angle": float(lobe.angle), "xi0": xi0, "bias": bias, "budget": int(budget),
         "spacing": plan.spacing, "circles": len(plan.radii),
-        "disk": points.tolist(), "prob": prob.tolist(),
+        "disk": points.tolist(), "prob": prob.tolist(), "pattern": pattern,
         "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS})
     return atlas.astype(np.float32), meta
 
@@ -144,6 +202,27 @@ def _albedo(atlas, meta, wo):
     return top * (1 - fy) + bottom * fy
 
 
+def _stretch_angle(wo, ax, ay):
+    """(B,) angle in the VNDF disk (T1, T2 axes, before the p2 warp by s) of the
+    direction the disk-to-half-vector map stretches most, for lobe-frame views
+    wo (B, 3): the principal axis of M = ax^2 a a^T + ay^2 b b^T with
+    a = (T1_x, s T2_x), b = (T1_y, s T2_y) (the rows of the map's Jacobian at the
+    disk's centre, up to the common normalisation). The stretched pattern's
+    x axis is turned onto it."""
+    v = wo * np.array([ax, ay, 1.0])
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    lensq = v[:, 0] ** 2 + v[:, 1] ** 2
+    inv = 1.0 / np.sqrt(np.maximum(lensq, 1e-30))
+    t1 = np.stack([np.where(lensq > 0, -v[:, 1] * inv, 1.0),
+                   np.where(lensq > 0, v[:, 0] * inv, 0.0), np.zeros(len(v))], -1)
+    t2 = np.cross(v, t1)
+    s = 0.5 * (1.0 + v[:, 2])
+    a1, a2 = ax * t1[:, 0], ax * s * t2[:, 0]
+    b1, b2 = ay * t1[:, 1], ay * s * t2[:, 1]
+    m11, m22, m12 = a1 * a1 + b1 * b1, a2 * a2 + b2 * b2, a1 * a2 + b1 * b2
+    return 0.5 * np.arctan2(2.0 * m12, m11 - m22)
+
+
 def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.8)):
     """(N, 3) radiance the runtime-sampling nodes compute for world-space unit
     normals, views (surface to viewer) and tangents (N, 3) each (tangents None:
@@ -165,9 +244,14 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     ax, ay = float(meta["ax"]), float(meta["ay"])
     disk = np.asarray(meta["disk"], dtype=np.float64)
     prob = np.asarray(meta["prob"], dtype=np.float64)
-    u = np.stack([np.sum(disk * disk, axis=1),
-                  np.mod(np.arctan2(disk[:, 1], disk[:, 0]), 2.0 * np.pi) / (2.0 * np.pi)], -1)
-    h = sample_ggx_vndf(wo[:, None, :], u[None], ax, ay)  # (B, S, 3)
+    turn = np.zeros((len(wo), 1))
+    if meta.get("pattern") == "stretched":
+        turn = _stretch_angle(wo, ax, ay)[:, None]
+    u = np.stack(np.broadcast_arrays(
+        np.sum(disk * disk, axis=1)[None],
+        np.mod(np.arctan2(disk[:, 1], disk[:, 0])[None] + turn, 2.0 * np.pi) / (2.0 * np.pi)),
+        -1)
+    h = sample_ggx_vndf(wo[:, None, :], u, ax, ay)  # (B, S, 3)
     wo_h = np.sum(wo[:, None, :] * h, axis=-1)
     wi = 2.0 * wo_h[..., None] * h - wo[:, None, :]
     valid = (wi[..., 2] > 0) & (wo_h > 0)

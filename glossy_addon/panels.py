@@ -165,6 +165,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
                                         "uv_layers", text="")
                     else:
                         row.prop(settings, "tangent_uv_map", text="")
+                    if settings.tangent_note:
+                        _reason(column, settings.tangent_note, icon="ERROR")
             column.prop(settings, "color")
         layout.prop(settings, "diffuse")
         layout.prop(settings, "fresnel_ior")

@@ -178,6 +178,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Axis", items=[("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")], default="Z")
     tangent_uv_map: bpy.props.StringProperty(
         name="UV Map", description="UV map of the tangent (empty: the active render UV map)")
+    tangent_note: bpy.props.StringProperty(
+        name="Tangent Used", description="Why the last attach used another tangent than set "
+        "(empty: as set)")
     samples: bpy.props.IntProperty(
         name="Samples", description="Runtime samples per pixel (the regular pattern with the "
         "closest count)", default=19, min=1, max=64)

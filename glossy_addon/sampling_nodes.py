@@ -1,8 +1,8 @@
 """Shader nodes that reproduce bake.sampling_runtime.shade: runtime regular sampling.
 
-Per pixel, one shared group (``Glossy Runtime Frame v1``) builds the lobe frame
+Per pixel, one shared group (``Glossy Runtime Frame v2``) builds the lobe frame
 from the normal, the view and a tangent and the view's terms of Heitz's
-visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v1``)
+visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v2``)
 turns the sample's disk point into a world direction, its weight and its MIP
 level. The material holds what node groups cannot: the image taps (four
 Closest taps per stored level, bilinear weights from ``Glossy Atlas Taps v1``,
@@ -17,7 +17,7 @@ import bpy
 
 from .nodes import _Builder, _group, _group_node, _io, _tap, atlas_taps_group
 
-GROUP_VERSION = 1
+GROUP_VERSION = 2
 FRAME_GROUP = f"Glossy Runtime Frame v{GROUP_VERSION}"
 SAMPLE_GROUP = f"Glossy VNDF Sample v{GROUP_VERSION}"
 _FLOAT, _VECTOR = "NodeSocketFloat", "NodeSocketVector"
@@ -35,14 +35,16 @@ def _lambda(b, w, ax, ay):
 
 def frame_group(ax, ay):
     """Per-material group (the lobe's alphas are constants): inputs Normal, Incoming,
-    Tangent, Angle; outputs the lobe frame X, Y, N (world), Wo (lobe frame, z floored
-    at MinCos), the VNDF basis Vh, T1, T2, S and the view's Lambda."""
+    Tangent, Angle, MinCos, Stretched (1: turn a stretched pattern, 0: not); outputs
+    the lobe frame X, Y, N (world), Wo (lobe frame, z floored at MinCos), the VNDF
+    basis Vh, T1, T2, S, the view's Lambda and the cosine and sine of the pattern's
+    turn (bake.sampling_runtime._stretch_angle; 0 unless Stretched)."""
     name = f"{FRAME_GROUP} {ax:.6g} {ay:.6g}"
     tree = _group(name, [("Normal", _VECTOR), ("Incoming", _VECTOR), ("Tangent", _VECTOR),
-                         ("Angle", _FLOAT), ("MinCos", _FLOAT)],
+                         ("Angle", _FLOAT), ("MinCos", _FLOAT), ("Stretched", _FLOAT)],
                   [("X", _VECTOR), ("Y", _VECTOR), ("N", _VECTOR), ("Wo", _VECTOR),
                    ("Vh", _VECTOR), ("T1", _VECTOR), ("T2", _VECTOR), ("S", _FLOAT),
-                   ("Lambda", _FLOAT)])
+                   ("Lambda", _FLOAT), ("TurnCos", _FLOAT), ("TurnSin", _FLOAT)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
@@ -68,10 +70,23 @@ def frame_group(ax, ay):
     inv = b.math("DIVIDE", 1.0, b.math("SQRT", b.math("MAXIMUM", lensq, 1e-30)))
     t1 = b.combine(b.select(has, b.math("MULTIPLY", b.math("MULTIPLY", hy, -1.0), inv), 1.0),
                    b.select(has, b.math("MULTIPLY", hx, inv), 0.0), 0.0)
+    t2 = b.vec("CROSS_PRODUCT", vh, t1)
+    s = b.math("MULTIPLY", b.math("ADD", hz, 1.0), 0.5)
+    t1x, t1y, _ = b.separate(t1)
+    t2x, t2y, _ = b.separate(t2)
+    a1, b1 = b.math("MULTIPLY", t1x, ax), b.math("MULTIPLY", t1y, ay)
+    a2 = b.math("MULTIPLY", b.math("MULTIPLY", t2x, ax), s)
+    b2 = b.math("MULTIPLY", b.math("MULTIPLY", t2y, ay), s)
+    m11 = b.math("ADD", b.math("MULTIPLY", a1, a1), b.math("MULTIPLY", b1, b1))
+    m22 = b.math("ADD", b.math("MULTIPLY", a2, a2), b.math("MULTIPLY", b2, b2))
+    m12 = b.math("ADD", b.math("MULTIPLY", a1, a2), b.math("MULTIPLY", b1, b2))
+    turn = b.math("MULTIPLY", b.math("MULTIPLY", b.math(
+        "ARCTAN2", b.math("MULTIPLY", m12, 2.0), b.math("SUBTRACT", m11, m22)), 0.5),
+        inputs["Stretched"])
     for socket, value in (("X", x), ("Y", y), ("N", n), ("Wo", wo), ("Vh", vh), ("T1", t1),
-                          ("T2", b.vec("CROSS_PRODUCT", vh, t1)),
-                          ("S", b.math("MULTIPLY", b.math("ADD", hz, 1.0), 0.5)),
-                          ("Lambda", _lambda(b, wo, ax, ay))):
+                          ("T2", t2), ("S", s), ("Lambda", _lambda(b, wo, ax, ay)),
+                          ("TurnCos", b.math("COSINE", turn)),
+                          ("TurnSin", b.math("SINE", turn))):
         b.link(value, outputs[socket])
     return tree
 
@@ -79,22 +94,27 @@ def frame_group(ax, ay):
 def sample_group(ax, ay):
     """Per-material group: one sample's world Direction, Weight (prob G2, 0 when
     invalid) and MIP Level (clamped to [0, Levels - 1]) from its disk point P1, P2
-    and cell probability Prob (bake.sampling_runtime's module doc)."""
+    (turned by TurnCos, TurnSin) and cell probability Prob
+    (bake.sampling_runtime's module doc)."""
     name = f"{SAMPLE_GROUP} {ax:.6g} {ay:.6g}"
     names = ["X", "Y", "N", "Wo", "Vh", "T1", "T2"]
     tree = _group(name, [(s, _VECTOR) for s in names]
                   + [(s, _FLOAT) for s in ("S", "Lambda", "P1", "P2", "Prob", "Bias", "Levels",
-                                           "Texel", "Pole")],
+                                           "Texel", "Pole", "TurnCos", "TurnSin")],
                   [("Direction", _VECTOR), ("Weight", _FLOAT), ("Level", _FLOAT)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
     i, outputs = _io(tree)
-    p1, s = i["P1"], i["S"]
+    s = i["S"]
+    p1 = b.math("SUBTRACT", b.math("MULTIPLY", i["P1"], i["TurnCos"]),
+                b.math("MULTIPLY", i["P2"], i["TurnSin"]))
+    p2_disk = b.math("ADD", b.math("MULTIPLY", i["P1"], i["TurnSin"]),
+                     b.math("MULTIPLY", i["P2"], i["TurnCos"]))
     root1 = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", p1, p1)),
                                   0.0))
     p2 = b.math("ADD", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, s), root1),
-                b.math("MULTIPLY", s, i["P2"]))
+                b.math("MULTIPLY", s, p2_disk))
     rest = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", b.math(
         "SUBTRACT", 1.0, b.math("MULTIPLY", p1, p1)), b.math("MULTIPLY", p2, p2)), 0.0))
     nh = b.vec("ADD", b.vec("ADD", b.vec("SCALE", i["T1"], scale=p1),
@@ -145,8 +165,9 @@ def runtime_value(b, image, meta, normal, view, tangent):
     min_cos = float(meta["min_cos"])
     frame = _group_node(b, frame_group(ax, ay), {
         "Normal": normal, "Incoming": view, "Tangent": tangent, "Angle": float(meta["angle"]),
-        "MinCos": min_cos})
-    shared = {k: frame[k] for k in ("X", "Y", "N", "Wo", "Vh", "T1", "T2", "S", "Lambda")}
+        "MinCos": min_cos, "Stretched": 1.0 if meta.get("pattern") == "stretched" else 0.0})
+    shared = {k: frame[k] for k in ("X", "Y", "N", "Wo", "Vh", "T1", "T2", "S", "Lambda",
+                                    "TurnCos", "TurnSin")}
     constants = {"Bias": float(meta["bias"]), "Levels": float(levels),
                  "Texel": (math.pi / height) * (2.0 * math.pi / width),
                  "Pole": math.sin(math.pi / (2.0 * height))}

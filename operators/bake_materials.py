@@ -393,6 +393,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                                           precision=runtime_meta.get("precision", "float32")),
                                runtime_meta)
                 tangent, warning = effective_tangent(material, obj)
+                settings.tangent_note = warning or ""
                 if warning:
                     warnings.append(warning)
                 if settings.diffuse_path:

@@ -1,6 +1,7 @@
 """Runtime Sampling and Hybrid through the add-on's operators, measured by glossy.validate.
 
-    python runtime_validate.py HDRI WORKDIR RESULT.json [SIZE SAMPLES EEVEE_SAMPLES [SPHERES]]
+    python runtime_validate.py HDRI WORKDIR RESULT.json [SIZE SAMPLES EEVEE_SAMPLES [SPHERES
+        [CHECKS]]]
 
 As a user's script: isolated spheres (ray visibility off, so none sees
 another), each with its own material and World Only probe (64 px faces),
@@ -9,6 +10,9 @@ them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
 rotation]; the default is one brushed sphere (GGX 0.3, anisotropy 0.8,
 Runtime Sampling, tangent radial about Z). Writes the validation report's
 figures per sphere, the operators' reports and the attached node count.
+With CHECKS=1 it first tries bad input on a sphere of its own, removed after:
+a Beckmann lobe with Runtime Sampling (refused: no GGX sampler) and a UV-map
+tangent on a mesh without UV maps (attached radially, with a warning).
 """
 
 import json
@@ -19,6 +23,7 @@ hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
 size, samples, eevee_samples = (int(a) for a in (sys.argv[4:7] or (64, 64, 4)))
 spheres = json.loads(sys.argv[7]) if len(sys.argv) > 7 else \
     [["Brushed", "runtime", 0.3, 0.8, 0.0]]
+checks = len(sys.argv) > 8 and sys.argv[8] == "1"
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
@@ -44,6 +49,29 @@ def run(operator):
 
 
 bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))  # outputs go beside it
+if checks:
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, location=(0, 0, -5))
+    probe_obj = bpy.context.object
+    probe_obj.glossy.probe_source = "WORLD"
+    probe_obj.glossy.probe_size_mode = "FIXED"
+    probe_obj.glossy.probe_resolution = 16
+    bad = bpy.data.materials.new("Beckmann")
+    bad.glossy.model, bad.glossy.method, bad.glossy.anisotropy = "beckmann", "runtime", 0.5
+    probe_obj.data.materials.append(bad)
+    run(bpy.ops.glossy.capture_probes)
+    result["beckmann"] = {"bake": run(bpy.ops.glossy.bake_materials),
+                          "bake_path": bad.glossy.bake_path,
+                          "files": sorted(p.name for p in (workdir / "glossy").iterdir())}
+    bad.glossy.model, bad.glossy.tangent_type, bad.glossy.tangent_uv_map = "ggx", "UV_MAP", "UVMap"
+    while probe_obj.data.uv_layers:
+        probe_obj.data.uv_layers.remove(probe_obj.data.uv_layers[0])
+    result["no_uv"] = {"bake": run(bpy.ops.glossy.bake_materials),
+                       "attach": run(bpy.ops.glossy.attach_materials),
+                       "tangents": sorted({(n.direction_type, n.axis) for n in
+                                           bad.node_tree.nodes if n.type == "TANGENT"}),
+                       "note": bad.glossy.tangent_note}
+    bpy.data.objects.remove(probe_obj)
+    bpy.data.materials.remove(bad)
 objects = []
 for index, (name, method, roughness, anisotropy, rotation) in enumerate(spheres):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,

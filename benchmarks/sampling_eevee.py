@@ -1,0 +1,168 @@
+"""EEVEE frame time and shader compile time of runtime sampling (issue 11, item 5).
+
+The regular-sampling paper's Figure 7 on this machine: one sphere filling a
+256 x 256 frame (software GL here), lit by a bundled HDRI, rendered by EEVEE
+at one sample per frame with
+
+- EEVEE's own BSDF (the baseline, measured in the same run; world
+  sun_threshold 0 and clamp_surface_indirect 0, the careful user's settings),
+- Glossy's 3D map lookup (16 slices) and, for isotropic lobes, the Hybrid,
+- Glossy's runtime sampling at each pattern size (samples per pixel).
+
+For each: the first render (shader compile + render) and the median of three
+renders after it (the frame time); the compile time is their difference.
+Printed with the ratio of each frame time to native EEVEE's.
+
+    .venv/bin/python benchmarks/sampling_eevee.py [--hdri sunset.exr] [--size 256]
+        [--spec ggx:roughness=0.3,anisotropy=0.8]
+"""
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tools.bpy_wheel import studio_lights  # noqa: E402
+
+SCENE = r'''
+import json, statistics, sys, time
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+import _checkout  # noqa
+import bpy
+import numpy as np
+from glossy.bake import atlas, brdf, envmap, exr, hybrid, prefilter, sampling, sampling_runtime
+from glossy.glossy_addon.nodes import build_lookup, load_atlas
+from glossy.glossy_addon.scenes import environment_world
+from _ortho_sphere import add_sphere_and_camera
+
+hdri, work, spec, size = sys.argv[2], Path(sys.argv[3]), sys.argv[4], int(sys.argv[5])
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+environment_world(scene, hdri)
+scene.world.sun_threshold = 0.0
+scene.render.engine = "BLENDER_EEVEE"
+scene.eevee.taa_render_samples = 1
+scene.eevee.clamp_surface_indirect = 0.0
+scene.render.resolution_x = scene.render.resolution_y = size
+scene.render.image_settings.file_format = "OPEN_EXR"
+sphere = add_sphere_and_camera(scene, 96, 48, 2.1)
+model = brdf.parse(spec)
+environment, _ = exr.read(hdri)
+probe = envmap.convert(environment[..., :3], "latlong", "cube", 128)
+
+
+def native():
+    material = bpy.data.materials.new("native")
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    bsdf = tree.nodes.new("ShaderNodeBsdfAnisotropic")
+    bsdf.distribution = "GGX"
+    bsdf.inputs["Roughness"].default_value = model.params["roughness"]
+    bsdf.inputs["Anisotropy"].default_value = model.params.get("anisotropy", 0.0)
+    bsdf.inputs["Rotation"].default_value = model.params.get("rotation", 0.0)
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    return material
+
+
+def texture(name, data, meta):
+    path = work / f"{name}.exr"
+    exr.write(path, data, meta)
+    return load_atlas(path), meta
+
+
+map_texture = None
+if model.isotropic:
+    baked = prefilter.prefilter(probe, model, "3d", "auto", slices=16, layout="cube",
+                                max_size=256)
+    map_texture = texture("map", *atlas.pack(baked))
+
+
+def glossy(name, runtime=None):
+    material = bpy.data.materials.new(name)
+    image, meta = map_texture if map_texture is not None and name != "runtime" else (None, None)
+    build_lookup(material, image, meta, runtime=runtime)
+    return material
+
+
+def runtime(budget, for_hybrid=False):
+    data, meta = sampling_runtime.pack(probe, spec, budget=budget, height=256)
+    if for_hybrid:
+        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])))
+        meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
+    return texture(f"runtime{budget}", data, meta), len(meta["prob"])
+
+
+def timed(material):
+    sphere.data.materials.clear()
+    sphere.data.materials.append(material)
+    scene.render.filepath = str(work / "frame.exr")
+    times = []
+    for _ in range(4):
+        start = time.perf_counter()
+        bpy.ops.render.render(write_still=False)
+        times.append(time.perf_counter() - start)
+    return times[0], statistics.median(times[1:])
+
+
+cases = [("EEVEE native", native())]
+if map_texture is not None:
+    cases.append(("Glossy 3D map", glossy("map")))
+anisotropic = not model.isotropic
+for budget in ((4, 14, 30, 52) if anisotropic else (7, 19, 37, 61)):
+    tex, count = runtime(budget)
+    cases.append((f"runtime {count} samples", glossy("runtime", tex)))
+if map_texture is not None:
+    tex, count = runtime(19, True)
+    cases.append((f"Hybrid (3D map + {count} samples)", glossy("hybrid", tex)))
+rows = []
+for name, material in cases:
+    first, frame = timed(material)
+    nodes = len(material.node_tree.nodes)
+    rows.append({"name": name, "first": first, "frame": frame, "nodes": nodes})
+    print(json.dumps(rows[-1]), flush=True)
+'''
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hdri", default="sunset.exr")
+    parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--spec", action="append",
+                        help="BRDF spec (repeatable; default GGX 0.3 anisotropy 0.8, and 0.3)")
+    args = parser.parse_args()
+    import json
+
+    for spec in args.spec or ["ggx:roughness=0.3,anisotropy=0.8", "ggx:roughness=0.3"]:
+        work = Path(tempfile.mkdtemp())
+        script = work / "scene.py"
+        script.write_text(SCENE)
+        print(f"{spec}, {args.hdri}, {args.size}^2 px, EEVEE 1 sample per frame (software GL "
+              f"here); compile = first render - frame time", flush=True)
+        print(f"  {'method':34s} {'nodes':>6s} {'first s':>8s} {'frame s':>8s} "
+              f"{'compile s':>9s} {'x native':>8s}", flush=True)
+        process = subprocess.Popen(
+            [sys.executable, str(script), str(ROOT / "tests" / "blender" / "scripts"),
+             str(studio_lights() / args.hdri), str(work), spec, str(args.size)],
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        base = None
+        for line in process.stdout:
+            if not line.startswith("{"):
+                continue
+            row = json.loads(line)
+            base = base or row["frame"]
+            print(f"  {row['name']:34s} {row['nodes']:6d} {row['first']:8.2f} "
+                  f"{row['frame']:8.3f} {row['first'] - row['frame']:9.2f} "
+                  f"{row['frame'] / base:8.2f}", flush=True)
+        if process.wait():
+            sys.exit(f"the EEVEE scene failed (exit {process.returncode})")
+
+
+if __name__ == "__main__":
+    main()
