@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/separable.py
 	$(PY) benchmarks/lamps.py
 	$(PY) benchmarks/sampling.py
+	$(PY) benchmarks/sampling_eevee.py
 	$(PY) benchmarks/hybrid.py
 
 clean:

@@ -14,9 +14,8 @@ estimator in NumPy (the baseline being FIS, measured in the same run; the
 first layout's regular times include the directional-albedo integrals of
 eq. 18's constant, cached afterwards, as a lookup table holds them at run time).
 
-Not here yet: the paper's Figure 7 (EEVEE frame time against samples per
-pixel) and the node group's compile time need the Blender lookup of issue 11,
-which does not exist yet.
+The paper's Figure 7 (EEVEE frame time against samples per pixel) and the
+node graph's compile time are in benchmarks/sampling_eevee.py.
 
     .venv/bin/python benchmarks/sampling.py [--size 48] [--probe 64]
 """

@@ -1,7 +1,7 @@
 """Runtime Sampling and Hybrid through the add-on's operators, measured by glossy.validate.
 
-    python runtime_validate.py HDRI WORKDIR RESULT.json [SIZE SAMPLES EEVEE_SAMPLES [SPHERES
-        [CHECKS]]]
+    python runtime_validate.py HDRI WORKDIR [SIZE SAMPLES EEVEE_SAMPLES [SPHERES [CHECKS]]]
+        RESULT.json
 
 As a user's script: isolated spheres (ray visibility off, so none sees
 another), each with its own material and World Only probe (64 px faces),
@@ -19,11 +19,11 @@ import json
 import sys
 from pathlib import Path
 
-hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
-size, samples, eevee_samples = (int(a) for a in (sys.argv[4:7] or (64, 64, 4)))
-spheres = json.loads(sys.argv[7]) if len(sys.argv) > 7 else \
-    [["Brushed", "runtime", 0.3, 0.8, 0.0]]
-checks = len(sys.argv) > 8 and sys.argv[8] == "1"
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+options = sys.argv[3:-1]
+size, samples, eevee_samples = (int(a) for a in (options[:3] or (64, 64, 4)))
+spheres = json.loads(options[3]) if len(options) > 3 else [["Brushed", "runtime", 0.3, 0.8, 0.0]]
+checks = len(options) > 4 and options[4] == "1"
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
