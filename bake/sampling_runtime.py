@@ -12,7 +12,10 @@ slice whose texels (row 1 + l, column 1 + k) hold the directional albedo
 rho(mu_k, phi_l) (RGB) at mu_k = m + (1 - m) k / (M - 1) (m = MIN_COS) and
 phi_l = (pi / 2) l / (P - 1) of the view's azimuth in the lobe frame folded
 into [0, pi / 2] (the GGX lobe is symmetric under both mirror axes); P = 1 for
-isotropic lobes.
+isotropic lobes. The same slice holds the pattern, one sample per texel
+(p1, p2, prob_j as RGB) from atlas row ``sample_row`` (meta), column 1 + j mod W,
+row + j div W, so that the nodes read sample j in a loop (a repeat zone whose
+shader compiles once, whatever the sample count) rather than unrolled.
 
 The constants (metadata): the lobe (``ax``, ``ay``, ``angle``), the density
 threshold ``xi0``, the MIP ``bias`` and, per sample j, its point (p1, p2) on
@@ -62,7 +65,7 @@ from .errors import BakeError
 from .sampling import DEFAULTS, lobe_of, pattern_for_budget
 from .sampling_atlas import AtlasProbe, pack_levels
 
-__all__ = ["pack", "shade", "check", "MODE", "ALBEDO_MU", "ALBEDO_PHI"]
+__all__ = ["pack", "shade", "check", "samples_of", "MODE", "ALBEDO_MU", "ALBEDO_PHI"]
 
 MODE = "atlas_runtime"
 #: Albedo table size: M values of mu = n.v, P of the folded view azimuth.
@@ -161,7 +164,6 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     extra[:count_phi, :ALBEDO_MU] = table
     extra_padded = np.concatenate([_pad(extra), np.zeros((height + 2, 1, 3), np.float32)], 1)
     extra_padded[1:1 + count_phi, 1:1 + ALBEDO_MU] = table  # exact, not the padding's means
-    atlas = np.concatenate([levels, extra_padded], axis=0)
     if pattern == "auto":
         pattern = "stretched" if lobe.anisotropic else "regular"
     if pattern == "stretched":
@@ -170,6 +172,13 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     else:
         points = plan.points / plan.edge
         prob = plan.cells / (np.pi * plan.edge ** 2)
+    first = count_phi + 2  # padded rows of the extra slice: table, one empty, the samples
+    sample_rows = -(-len(prob) // width)
+    if first + sample_rows > height + 1:
+        raise BakeError(f"the level stack ({height} rows) is too small for {len(prob)} samples")
+    for j, ((p1, p2), q) in enumerate(zip(points, prob, strict=True)):
+        extra_padded[first + j // width, 1 + j % width] = (p1, p2, q)
+    atlas = np.concatenate([levels, extra_padded], axis=0)
     meta.update({
         "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
         "mu": [0.0] * (meta["slices"] + 1), "offsets": [0.0] * (meta["slices"] + 1),
@@ -177,6 +186,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         "angle": float(lobe.angle), "xi0": xi0, "bias": bias, "budget": int(budget),
         "spacing": plan.spacing, "circles": len(plan.radii),
         "disk": points.tolist(), "prob": prob.tolist(), "pattern": pattern,
+        "sample_row": int(meta["slices"] * (height + 2) + first),
         "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS})
     return atlas.astype(np.float32), meta
 
@@ -200,6 +210,15 @@ def _albedo(atlas, meta, wo):
     top = atlas[y0, x0] * (1 - fx) + atlas[y0, x0 + 1] * fx
     bottom = atlas[y1, x0] * (1 - fx) + atlas[y1, x0 + 1] * fx
     return top * (1 - fy) + bottom * fy
+
+
+def samples_of(atlas, meta):
+    """(points (S, 2), probabilities (S,)) as the nodes read them: from the atlas's
+    sample texels (module doc), not from the metadata's lists."""
+    width = int(meta["slice_width"])
+    j = np.arange(len(meta["prob"]))
+    texels = np.asarray(atlas)[int(meta["sample_row"]) + j // width, 1 + j % width, :3]
+    return texels[:, :2].astype(np.float64), texels[:, 2].astype(np.float64)
 
 
 def _stretch_angle(wo, ax, ay):
@@ -242,8 +261,7 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     wo[:, 2] = np.maximum(wo[:, 2], MIN_COS)
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
     ax, ay = float(meta["ax"]), float(meta["ay"])
-    disk = np.asarray(meta["disk"], dtype=np.float64)
-    prob = np.asarray(meta["prob"], dtype=np.float64)
+    disk, prob = samples_of(atlas, meta)
     turn = np.zeros((len(wo), 1))
     if meta.get("pattern") == "stretched":
         turn = _stretch_angle(wo, ax, ay)[:, None]

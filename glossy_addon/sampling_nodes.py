@@ -1,14 +1,17 @@
 """Shader nodes that reproduce bake.sampling_runtime.shade: runtime regular sampling.
 
-Per pixel, one shared group (``Glossy Runtime Frame v2``) builds the lobe frame
+Per pixel, one shared group (``Glossy Runtime Frame v3``) builds the lobe frame
 from the normal, the view and a tangent and the view's terms of Heitz's
-visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v2``)
+visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v3``)
 turns the sample's disk point into a world direction, its weight and its MIP
-level. The material holds what node groups cannot: the image taps (four
-Closest taps per stored level, bilinear weights from ``Glossy Atlas Taps v1``,
-two levels per sample) and the sum over the samples, normalised and scaled by
-the tabulated albedo. nodes.build_lookup attaches it (methods Runtime Sampling
-and Hybrid); :func:`hybrid_value` blends it with the 3D map.
+level. The material holds what node groups cannot: the image taps (the
+sample's constants from its texel, four Closest taps per stored level, bilinear
+weights from ``Glossy Atlas Taps v1``, two levels per sample) inside two
+repeat zones over the samples (the strongest weight, then the kept sum),
+normalised and scaled by the tabulated albedo. EEVEE compiles a repeat zone as
+a loop: the shader's size and compile time do not grow with the sample count
+(unrolled, 19 samples took 49 s to compile here). nodes.build_lookup attaches
+it (methods Runtime Sampling and Hybrid); :func:`hybrid_value` blends it with the 3D map.
 """
 
 import math
@@ -17,7 +20,7 @@ import bpy
 
 from .nodes import _Builder, _group, _group_node, _io, _tap, atlas_taps_group
 
-GROUP_VERSION = 2
+GROUP_VERSION = 3
 FRAME_GROUP = f"Glossy Runtime Frame v{GROUP_VERSION}"
 SAMPLE_GROUP = f"Glossy VNDF Sample v{GROUP_VERSION}"
 _FLOAT, _VECTOR = "NodeSocketFloat", "NodeSocketVector"
@@ -156,16 +159,56 @@ def sample_group(ax, ay):
     return tree
 
 
+def _repeat_zone(b, iterations, items):
+    """A repeat zone (Blender's repeat zone in shader nodes; EEVEE compiles it as a
+    loop, so the shader's size does not grow with ``iterations``). items: list of
+    (socket type, name, initial value or socket). Returns (zone input node's
+    outputs, zone output node's inputs, zone output node's outputs)."""
+    start = b._place(b.nodes.new("GeometryNodeRepeatInput"))
+    end = b._place(b.nodes.new("GeometryNodeRepeatOutput"))
+    start.pair_with_output(end)
+    end.repeat_items.clear()
+    for kind, name, _ in items:
+        end.repeat_items.new(kind, name)
+    start.inputs["Iterations"].default_value = int(iterations)
+    for _, name, initial in items:
+        if isinstance(initial, tuple):
+            start.inputs[name].default_value = initial
+        else:
+            b.link(initial, start.inputs[name])
+    return start.outputs, end.inputs, end.outputs
+
+
+def _sample_data(b, image, meta, index):
+    """(P1, P2, Prob) of sample ``index`` (a socket) from its texel (module doc of
+    bake.sampling_runtime: row sample_row + index div W, column 1 + index mod W)."""
+    height, width = int(meta["slice_height"]), int(meta["slice_width"])
+    rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
+    row = b.math("ADD", b.math("FLOOR", b.math("DIVIDE", b.math("ADD", index, 0.5), width)),
+                 float(meta["sample_row"]) + 0.5)
+    column = b.math("ADD", b.math("FLOORED_MODULO", index, float(width)), 1.5)
+    texel = _tap(b, b.combine(b.math("DIVIDE", column, cols),
+                              b.math("SUBTRACT", 1.0, b.math("DIVIDE", row, rows))), image)
+    return b.separate(texel)
+
+
 def runtime_value(b, image, meta, normal, view, tangent):
-    """The runtime-sampling radiance (colour socket) of a bake.sampling_runtime atlas."""
+    """The runtime-sampling radiance (colour socket) of a bake.sampling_runtime atlas.
+
+    Two repeat zones over the samples (their constants read from the atlas): the
+    first finds the strongest weight, the second sums the kept weights and their
+    weighted radiance (two stored levels, four Closest taps each)."""
+    if "sample_row" not in meta:
+        raise ValueError("this runtime-sampling texture predates the looped nodes: bake again")
     ax, ay = float(meta["ax"]), float(meta["ay"])
     levels, height, width = int(meta["levels"]), int(meta["slice_height"]), \
         int(meta["slice_width"])
     slices = int(meta["slices"])
-    min_cos = float(meta["min_cos"])
+    count = len(meta["prob"])
     frame = _group_node(b, frame_group(ax, ay), {
         "Normal": normal, "Incoming": view, "Tangent": tangent, "Angle": float(meta["angle"]),
-        "MinCos": min_cos, "Stretched": 1.0 if meta.get("pattern") == "stretched" else 0.0})
+        "MinCos": float(meta["min_cos"]),
+        "Stretched": 1.0 if meta.get("pattern") == "stretched" else 0.0})
     shared = {k: frame[k] for k in ("X", "Y", "N", "Wo", "Vh", "T1", "T2", "S", "Lambda",
                                     "TurnCos", "TurnSin")}
     constants = {"Bias": float(meta["bias"]), "Levels": float(levels),
@@ -173,35 +216,37 @@ def runtime_value(b, image, meta, normal, view, tangent):
                  "Pole": math.sin(math.pi / (2.0 * height))}
     sizes = {"Slices": float(slices), "Slice Height": float(height),
              "Slice Width": float(width), "Atlas Cols": float(width + 3)}
-    samples = []
-    for (p1, p2), prob in zip(meta["disk"], meta["prob"], strict=True):
-        out = _group_node(b, sample_group(ax, ay), {**shared, **constants, "P1": float(p1),
-                                                    "P2": float(p2), "Prob": float(prob)})
-        low = b.math("FLOOR", out["Level"])
-        high = b.math("MINIMUM", b.math("ADD", low, 1.0), float(levels - 1))
-        values = []
-        for k in (low, high):
-            taps = _group_node(b, atlas_taps_group(), {
-                "Normal": out["Direction"], "Incoming": out["Direction"], "K": k, "Offset": 0.0,
-                **sizes})
-            top = b.mix(taps["FX"], _tap(b, taps["UV00"], image), _tap(b, taps["UV01"], image))
-            bottom = b.mix(taps["FX"], _tap(b, taps["UV10"], image),
-                           _tap(b, taps["UV11"], image))
-            values.append(b.mix(taps["FY"], top, bottom))
-        radiance = b.mix(b.math("SUBTRACT", out["Level"], low), values[0], values[1])
-        samples.append((out["Weight"], radiance))
-    strongest = samples[0][0]
-    for weight, _ in samples[1:]:
-        strongest = b.math("MAXIMUM", strongest, weight)
-    threshold = b.math("MULTIPLY", strongest, float(meta["xi0"]))
-    total, summed = 0.0, None
-    for weight, radiance in samples:
-        kept = b.math("MULTIPLY", weight, b.math("SUBTRACT", 1.0, b.math(
-            "LESS_THAN", weight, threshold)))
-        total = b.math("ADD", total, kept) if total != 0.0 else kept
-        term = b.vec("SCALE", radiance, scale=kept)
-        summed = term if summed is None else b.vec("ADD", summed, term)
-    mean = b.vec("SCALE", summed, scale=b.math("DIVIDE", 1.0, b.math("MAXIMUM", total, 1e-30)))
+
+    def sample(index):
+        p1, p2, prob = _sample_data(b, image, meta, index)
+        return _group_node(b, sample_group(ax, ay), {**shared, **constants, "P1": p1,
+                                                     "P2": p2, "Prob": prob})
+
+    state, result, after = _repeat_zone(b, count, [("FLOAT", "Strongest", 0.0)])
+    b.link(b.math("MAXIMUM", state["Strongest"], sample(state["Iteration"])["Weight"]),
+           result["Strongest"])
+    threshold = b.math("MULTIPLY", after["Strongest"], float(meta["xi0"]))
+    state, result, after = _repeat_zone(b, count, [("FLOAT", "Total", 0.0),
+                                                   ("VECTOR", "Sum", (0.0, 0.0, 0.0))])
+    out = sample(state["Iteration"])
+    low = b.math("FLOOR", out["Level"])
+    high = b.math("MINIMUM", b.math("ADD", low, 1.0), float(levels - 1))
+    values = []
+    for k in (low, high):
+        taps = _group_node(b, atlas_taps_group(), {
+            "Normal": out["Direction"], "Incoming": out["Direction"], "K": k, "Offset": 0.0,
+            **sizes})
+        top = b.mix(taps["FX"], _tap(b, taps["UV00"], image), _tap(b, taps["UV01"], image))
+        bottom = b.mix(taps["FX"], _tap(b, taps["UV10"], image), _tap(b, taps["UV11"], image))
+        values.append(b.mix(taps["FY"], top, bottom))
+    radiance = b.mix(b.math("SUBTRACT", out["Level"], low), values[0], values[1])
+    weight = out["Weight"]
+    kept = b.math("MULTIPLY", weight, b.math("SUBTRACT", 1.0, b.math(
+        "LESS_THAN", weight, threshold)))
+    b.link(b.math("ADD", state["Total"], kept), result["Total"])
+    b.link(b.vec("ADD", state["Sum"], b.vec("SCALE", radiance, scale=kept)), result["Sum"])
+    mean = b.vec("SCALE", after["Sum"], scale=b.math("DIVIDE", 1.0, b.math(
+        "MAXIMUM", after["Total"], 1e-30)))
     return b.vec("MULTIPLY", mean, _albedo(b, image, meta, frame["Wo"]))
 
 

@@ -135,6 +135,22 @@ def test_the_atlas_survives_an_exr_round_trip(tmp_path):
                                sampling_runtime.shade(atlas, meta, n, v, t), rtol=1e-6)
 
 
+def test_the_samples_are_texels_of_the_atlas():
+    """The nodes read sample j's disk point and probability from a texel (so that
+    a loop, not an unrolled graph, visits them): the texels hold the metadata's
+    pattern to float32 rounding, also where the samples wrap onto a second row
+    (a 16-row stack is 32 texels wide; the largest budget has more samples)."""
+    env = sampling.spots_environment(16)
+    atlas, meta = sampling_runtime.pack(env, ANISOTROPIC, budget=64, height=16)
+    assert len(meta["prob"]) > meta["slice_width"]
+    points, prob = sampling_runtime.samples_of(atlas, meta)
+    np.testing.assert_allclose(points, meta["disk"], rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(prob, meta["prob"], rtol=1e-6)
+    assert prob.sum() == pytest.approx(1.0, abs=1e-3)  # cells partition the disk
+    levels = int(meta["levels"]) * (int(meta["slice_height"]) + 2)
+    assert meta["sample_row"] > levels  # in the table's slice, past the level stack
+
+
 def test_bad_input_is_refused():
     env = sampling.spots_environment(8)
     with pytest.raises(BakeError, match="GGX"):

@@ -21,3 +21,10 @@ def test_runtime_nodes_match_the_numpy_twin_for_an_anisotropic_lobe(tmp_path, hd
     assert result["median"] < 3e-3
     assert result["p99"] < 2e-2
     assert result["max"] < 5e-2
+    # The samples are a loop (two repeat zones), not unrolled: the graph and so the
+    # shader's compile time do not grow with the sample count.
+    small, large = result["graphs"]["budget"], result["graphs"]["large"]
+    assert large["samples"] > 2 * small["samples"]
+    assert large["nodes"] == small["nodes"] < 150
+    for graph in (small, large):
+        assert graph["iterations"] == [graph["samples"]] * 2

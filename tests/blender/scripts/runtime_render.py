@@ -34,6 +34,16 @@ scene, sphere = ortho_sphere_scene(48)
 
 lookup = bpy.data.materials.new("lookup")
 build_runtime(lookup, load_atlas(atlas_path), meta, ("RADIAL", "Z"))
+# The same lobe at the largest budget: the graph must not grow with the samples.
+large_data, large_meta = sampling_runtime.pack(probe, spec, budget=64)
+exr.write(workdir / "large.exr", large_data, large_meta)
+large = build_runtime(bpy.data.materials.new("large"), load_atlas(workdir / "large.exr"),
+                      large_meta, ("RADIAL", "Z"))
+graphs = {name: {"nodes": len(material.node_tree.nodes), "samples": len(m["prob"]),
+                 "iterations": sorted(n.inputs["Iterations"].default_value
+                                      for n in material.node_tree.nodes
+                                      if n.bl_idname == "GeometryNodeRepeatInput")}
+          for name, material, m in (("budget", lookup, meta), ("large", large, large_meta))}
 
 
 def encoded(name, socket_of):
@@ -87,4 +97,4 @@ relative = np.abs(rendered - predicted) / np.maximum(np.abs(predicted), 1e-3)
 with open(result_path, "w") as handle:
     json.dump({"pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
                "p99": float(np.percentile(relative, 99)), "max": float(relative.max()),
-               "mean_value": float(np.mean(predicted))}, handle, indent=1)
+               "mean_value": float(np.mean(predicted)), "graphs": graphs}, handle, indent=1)
