@@ -44,7 +44,8 @@ import numpy as np
 from .errors import BakeError
 from .probe_maps import latlong_detail_rows
 
-__all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "lobe_half_width", "effective_half_width",
+__all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "lobe_half_width", "ggx_half_width",
+           "effective_half_width",
            "latlong_detail_rows",
            "rows_for_half_width", "Choice", "choose_map_rows", "choose_probe_face"]
 
@@ -75,6 +76,17 @@ def lobe_half_width(gamma, profile) -> float:
     if not total > 0:
         return math.pi
     return float(np.interp(0.25 * total, cumulative, gamma))
+
+
+def ggx_half_width(alpha: float) -> float:
+    """:func:`lobe_half_width` of a GGX lobe of roughness ``alpha`` at normal
+    incidence, in closed form: 2 atan(alpha / sqrt(3)) rad (the half vector holds
+    tan^2 / (alpha^2 + tan^2) of the energy within angle theta_h, and the
+    reflected direction turns by 2 theta_h). For an anisotropic lobe pass the
+    narrow axis's alpha: its sharpest direction is what the probe must resolve."""
+    if not alpha > 0:
+        raise BakeError(f"a GGX alpha must be > 0, not {alpha!r}")
+    return 2.0 * math.atan(float(alpha) / math.sqrt(3.0))
 
 
 def effective_half_width(half_width, probe_shape, probe_layout) -> float:

@@ -183,7 +183,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "(empty: as set)")
     samples: bpy.props.IntProperty(
         name="Samples", description="Runtime samples per pixel (the regular pattern with the "
-        "closest count)", default=19, min=1, max=64)
+        "closest count). The nodes loop over them: more samples cost shading time per "
+        "pixel, not shader compile time", default=19, min=1, max=444, soft_max=200)
     runtime_path: bpy.props.StringProperty(
         name="Baked Sampling Levels", description="The runtime-sampling texture of a Hybrid "
         "bake", subtype="FILE_PATH")

@@ -6,7 +6,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr, lobes, resolution
+from ..bake import envmap, exr, lobes, resolution, sampling_runtime
 from ..bake.errors import BakeError
 from ..glossy_addon import ownership
 from ..glossy_addon.capture import CubeCapture
@@ -32,6 +32,14 @@ def _lobe_widths(obj):
         if material is None:
             continue
         settings = material.glossy
+        if settings.method in ("runtime", "hybrid"):  # the sampled lobe's narrow axis
+            try:
+                lobe, _ = sampling_runtime.check(settings.brdf_spec(), settings.samples)
+                widths.append(resolution.ggx_half_width(min(lobe.mx, lobe.my)))
+            except (BakeError, ValueError):
+                pass  # refused by the bake, which says so
+            if settings.method == "runtime" or settings.anisotropy != 0.0:
+                continue
         mode = settings.method if settings.method in ("3d", "2d") else "3d"
         try:
             fit = lobes.fit(settings.brdf_spec(), slices=max(2, settings.slices),

@@ -106,3 +106,21 @@ def test_auto_rows_are_where_resolution_stops_limiting_the_map(hdri_dir):
     at_auto, at_double, at_half = error(rows), error(2 * rows), error(rows // 2)
     assert at_auto <= 1.2 * at_double, (rows, at_auto, at_double)
     assert at_half > 1.2 * at_auto, (rows, at_half, at_auto)
+
+
+@pytest.mark.parametrize("alpha", [0.018, 0.09, 0.25])
+def test_ggx_half_width_is_lobe_half_width_of_the_ggx_profile(alpha):
+    """The closed form against lobe_half_width of the reflected GGX lobe at normal
+    incidence, integrated numerically: per solid angle of the reflected direction
+    it is D(h) / 4 (the Jacobian 1 / (4 cos theta_h) cancels D's cos theta_h), at
+    theta_h = gamma / 2, over every half vector of the hemisphere (gamma up to
+    pi: the closed form keeps the tail that a horizon would cut, 4% of the width
+    at alpha 0.25). A fine grid (400k angles) leaves the trapezoid error far
+    below the 1e-3 allowed."""
+    gamma = np.linspace(0.0, np.pi * (1 - 1e-9), 400001)
+    t2 = np.tan(gamma / 2) ** 2
+    ggx = 1.0 / (np.pi * alpha ** 2 * np.cos(gamma / 2) ** 4 * (1.0 + t2 / alpha ** 2) ** 2)
+    numeric = resolution.lobe_half_width(gamma, ggx / 4.0)
+    assert resolution.ggx_half_width(alpha) == pytest.approx(numeric, rel=1e-3)
+    with pytest.raises(BakeError, match="alpha"):
+        resolution.ggx_half_width(0.0)

@@ -1,18 +1,23 @@
 """Runtime Sampling and Hybrid through the add-on's operators, measured by glossy.validate.
 
-    python runtime_validate.py HDRI WORKDIR [SIZE SAMPLES EEVEE_SAMPLES [SPHERES [CHECKS]]]
-        RESULT.json
+    python runtime_validate.py HDRI WORKDIR [SIZE SAMPLES EEVEE_SAMPLES [SPHERES [CHECKS
+        [CAMERA [PROBE]]]]] RESULT.json
 
 As a user's script: isolated spheres (ray visibility off, so none sees
 another), each with its own material and World Only probe (64 px faces),
 baked, attached and validated together (no scene camera: validation frames
 them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
-rotation]; the default is one brushed sphere (GGX 0.3, anisotropy 0.8,
+rotation(, samples)]; the default is one brushed sphere (GGX 0.3, anisotropy 0.8,
 Runtime Sampling, tangent radial about Z). Writes the validation report's
 figures per sphere, the operators' reports and the attached node count.
 With CHECKS=1 it first tries bad input on a sphere of its own, removed after:
 a Beckmann lobe with Runtime Sampling (refused: no GGX sampler) and a UV-map
 tangent on a mesh without UV maps (attached radially, with a warning).
+With CAMERA=1 the scene gets a camera (bake.reference.sphere_buffers': at
+(0, -6, 0) looking along +Y, 90 mm on a 36 mm sensor) that validation renders
+through, so the first sphere fills the frame as in the NumPy benchmarks.
+PROBE: the probes' face size (default 64, Fixed); "auto" leaves it to
+Auto (the lobe's width, capped by the world image's detail).
 """
 
 import json
@@ -24,6 +29,8 @@ options = sys.argv[3:-1]
 size, samples, eevee_samples = (int(a) for a in (options[:3] or (64, 64, 4)))
 spheres = json.loads(options[3]) if len(options) > 3 else [["Brushed", "runtime", 0.3, 0.8, 0.0]]
 checks = len(options) > 4 and options[4] == "1"
+camera = len(options) > 5 and options[5] == "1"
+probe_face = options[6] if len(options) > 6 else "64"
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
@@ -73,7 +80,7 @@ if checks:
     bpy.data.objects.remove(probe_obj)
     bpy.data.materials.remove(bad)
 objects = []
-for index, (name, method, roughness, anisotropy, rotation) in enumerate(spheres):
+for index, (name, method, roughness, anisotropy, rotation, *budget) in enumerate(spheres):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
                                          location=(2.5 * index, 0.0, 0.0))
     bpy.ops.object.shade_smooth()
@@ -81,12 +88,17 @@ for index, (name, method, roughness, anisotropy, rotation) in enumerate(spheres)
     obj.name = name
     obj.visible_glossy = obj.visible_diffuse = obj.visible_transmission = False
     obj.glossy.probe_source = "WORLD"
-    obj.glossy.probe_size_mode = "FIXED"
-    obj.glossy.probe_resolution = 64
+    if probe_face == "auto":
+        obj.glossy.probe_size_mode, obj.glossy.probe_resolution = "AUTO", 1024
+    else:
+        obj.glossy.probe_size_mode = "FIXED"
+        obj.glossy.probe_resolution = int(probe_face)
     material = bpy.data.materials.new(name)
     settings = material.glossy
     settings.model, settings.method = "ggx", method
     settings.roughness, settings.anisotropy, settings.rotation = roughness, anisotropy, rotation
+    if budget:
+        settings.samples = int(budget[0])
     obj.data.materials.append(material)
     objects.append(obj)
     result[name] = {"capture": run(bpy.ops.glossy.capture_probes),
@@ -94,8 +106,17 @@ for index, (name, method, roughness, anisotropy, rotation) in enumerate(spheres)
                     "attach": run(bpy.ops.glossy.attach_materials),
                     "nodes": len(material.node_tree.nodes),
                     "bake_path": settings.bake_path, "runtime_path": settings.runtime_path,
-                    "size_reason": settings.size_reason}
-bpy.ops.object.select_all(action="SELECT")
+                    "size_reason": settings.size_reason,
+                    "probe_reason": obj.glossy.probe_reason}
+if camera:
+    view = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    view.data.lens, view.data.sensor_width, view.data.sensor_fit = 90.0, 36.0, "HORIZONTAL"
+    view.location, view.rotation_euler = (0.0, -6.0, 0.0), (0.5 * 3.141592653589793, 0.0, 0.0)
+    scene.collection.objects.link(view)
+    scene.camera = view
+bpy.ops.object.select_all(action="DESELECT")
+for obj in objects:
+    obj.select_set(True)
 result["validate"] = run(bpy.ops.glossy.validate)
 report = json.loads((Path(scene.glossy.last_report).with_suffix(".json")).read_text()) \
     if scene.glossy.last_report else {}

@@ -1,0 +1,80 @@
+"""Runtime Sampling and the Hybrid in EEVEE against Cycles, on every bundled HDRI
+(issue 11's acceptance), through the add-on's operators and glossy.validate.
+
+For each bundled HDRI and each case (method, GGX roughness, anisotropy,
+samples), one isolated sphere (tests/blender/scripts/runtime_validate.py:
+World Only probe, captured, baked, attached) is validated through a camera
+that makes it fill the frame as bake.reference.sphere_buffers' sphere does.
+Printed per case: relative RMS of luminance over the sphere's pixels for
+EEVEE with Glossy's material, native EEVEE at the scene's defaults and with
+the careful user's settings (world sun_threshold 0, clamp_surface_indirect
+0), the NumPy reference (distant lighting through the same probe: what
+Glossy's method could reach), all against Cycles (two seeds), and Cycles'
+own noise (from the two seeds). One sphere per run, so every figure sees the
+same pixels.
+
+    .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
+        [--eevee 4] [--probe 64|auto] [--hdri sunset ...]
+        [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples)
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tools.bpy_wheel import studio_lights  # noqa: E402
+
+CASES = ("3d:0.3:0:19", "runtime:0.3:0:19", "hybrid:0.3:0:19", "runtime:0.3:0.8:14")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--cycles", type=int, default=256, help="Cycles samples per seed")
+    parser.add_argument("--eevee", type=int, default=4, help="EEVEE samples")
+    parser.add_argument("--probe", default="64", help="probe face size, or auto")
+    parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    parser.add_argument("--case", action="append",
+                        help="method:roughness:anisotropy:samples (repeatable)")
+    args = parser.parse_args()
+    hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
+    script = ROOT / "tests" / "blender" / "scripts" / "runtime_validate.py"
+    print(f"{args.size}^2 px, Cycles 2 x {args.cycles} spp, EEVEE {args.eevee} samples, "
+          f"probe {args.probe}; relative RMS of luminance against Cycles", flush=True)
+    print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "
+          f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s}", flush=True)
+    for case in args.case or CASES:
+        method, roughness, anisotropy, samples = case.split(":")
+        for hdri in hdris:
+            work = Path(tempfile.mkdtemp(prefix="glossy-rv-"))
+            spheres = [["S", method, float(roughness), float(anisotropy), 0.0, int(samples)]]
+            start = time.perf_counter()
+            process = subprocess.run(
+                [sys.executable, str(script), str(studio_lights() / f"{hdri}.exr"), str(work),
+                 str(args.size), str(args.cycles), str(args.eevee), json.dumps(spheres), "0",
+                 "1", args.probe, str(work / "result.json")],
+                cwd=script.parent, capture_output=True, text=True)
+            seconds = time.perf_counter() - start
+            try:
+                result = json.loads((work / "result.json").read_text())
+                figures = result["S"]["figures"]
+            except (OSError, KeyError, ValueError):
+                tail = (process.stderr or process.stdout).strip().splitlines()[-1:]
+                print(f"{hdri:10s} {case:22s} failed: {tail}", flush=True)
+                continue
+            rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
+            print(f"{hdri:10s} {case:22s} {rms['eevee_glossy']:7.3f} {rms['eevee_native']:7.3f} "
+                  f"{rms.get('eevee_native_careful', float('nan')):7.3f} "
+                  f"{rms['reference']:9.3f} {figures['cycles_noise']:6.3f} {seconds:6.0f}",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
