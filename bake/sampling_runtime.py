@@ -251,6 +251,9 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     if meta.get("mode") != MODE:
         raise BakeError(f"not a runtime-sampling atlas (mode {meta.get('mode')!r})")
     normals, views, tangents = pixel_arrays(normals, views, tangents)
+    # Unit length as the nodes make them (decoded render passes are off by ~1e-3).
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    views = views / np.linalg.norm(views, axis=1, keepdims=True)
     atlas = np.asarray(atlas, dtype=np.float64)
     frames = _frames(normals, tangents, tangent_hint)
     angle = float(meta["angle"])
