@@ -1,0 +1,71 @@
+"""Runtime sampling's own accuracy in NumPy (bake.sampling_runtime.shade, the
+nodes' twin) against the brute-force integral, as the sample count and the
+probe grow, on every bundled HDRI.
+
+A sphere (bake.reference.sphere_buffers, --size pixels) with Blender's radial
+tangent about Z, a cube probe of --face pixels converted from the HDRI, the
+level stack at the probe's own detail (2 x face rows, as the bake's Auto);
+relative RMS of luminance against bake.reference.render through the same
+probe (so the probe's resolution is not part of this error: it is the
+estimator's). Separates what more samples buy from what a finer probe buys.
+
+    .venv/bin/python benchmarks/runtime_accuracy.py [--spec ggx:roughness=0.3]
+        [--budgets 19,61,127,252] [--face 64] [--size 48] [--hdri night ...]
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from bake import brdf, envmap, exr, reference, sampling_runtime  # noqa: E402
+from tools.bpy_wheel import studio_lights  # noqa: E402
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--spec", default="ggx:roughness=0.3,anisotropy=0.8")
+    parser.add_argument("--budgets", default="14,52,114,200")
+    parser.add_argument("--face", type=int, default=64, help="cube probe face (px)")
+    parser.add_argument("--size", type=int, default=48, help="sphere image size (px)")
+    parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    args = parser.parse_args()
+    model = brdf.parse(args.spec)
+    budgets = [int(b) for b in args.budgets.split(",")]
+    normals, views, mask = reference.sphere_buffers(args.size)
+    normals, views = normals[mask], views[mask]
+    tangents = np.stack([-normals[:, 1], normals[:, 0], np.zeros(len(normals))], -1)
+    names = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
+    print(f"{args.spec}, {len(normals)} sphere pixels, {args.face}^2-face probe, level stack "
+          f"{2 * args.face} rows; relative RMS of luminance against brute force", flush=True)
+    header = None
+    for name in names:
+        environment, _ = exr.read(studio_lights() / f"{name}.exr")
+        probe = envmap.convert(environment[..., :3], "latlong", "cube", args.face)
+        start = time.perf_counter()
+        truth = reference.render(model, probe, "cube", normals, views,
+                                 tangents=tangents) @ LUMINANCE
+        errors, counts = [], []
+        for budget in budgets:
+            atlas, meta = sampling_runtime.pack(probe, args.spec, budget=budget,
+                                                height=2 * args.face)
+            estimate = sampling_runtime.shade(atlas, meta, normals, views, tangents) @ LUMINANCE
+            errors.append(float(np.sqrt(np.mean((estimate - truth) ** 2)
+                                        / np.mean(truth ** 2))))
+            counts.append(len(meta["prob"]))
+        if header is None:
+            header = f"{'HDRI':10s} " + " ".join(f"{f'{c} smp':>8s}" for c in counts)
+            print(header, flush=True)
+        print(f"{name:10s} " + " ".join(f"{e:8.3f}" for e in errors)
+              + f"   ({time.perf_counter() - start:.0f} s)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
