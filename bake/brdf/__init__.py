@@ -5,7 +5,9 @@
 - ``name:key=value,...`` for a registered model (``ggx:roughness=0.3,anisotropy=0.8``,
   ``ward:ax=0.04,ay=0.04,ks=0.8``, ``phong:n=100``, ...; ``models()`` lists them);
 - ``sum(A; B; ...)`` for a sum, ``layer(ior=1.5; TOP; BASE)`` for a coat;
-- ``table:file=PATH.npz`` and ``merl:file=PATH.binary`` for data.
+- ``table:file=PATH.npz`` and ``merl:file=PATH.binary`` for data;
+- ``bump:file=H.exr,scale=2`` or ``bump:preset=gaussian,slope=0.2``: the table
+  computed from a height field (bake.bumpbrdf, Cabral, Max & Springmeyer).
 
 Every model gives ``f(wi, wo)`` (..., 3), ``sample(wo, u)``, ``pdf(wi, wo)``,
 ``albedo(wo)``, ``spec`` (canonical) and ``spec_hash()`` (base.py).
@@ -28,6 +30,8 @@ def models() -> dict:
                  for name, cls in REGISTRY.items() if name not in ("table",)}
     described["table"] = "tabulated BRDF from an .npz file: table:file=PATH"
     described["merl"] = "MERL measured BRDF: merl:file=PATH"
+    described["bump"] = ("BRDF of a bumpy surface from its height field: "
+                         "bump:file=H.exr,scale=S or bump:preset=gaussian|noise|grooves")
     described["sum"] = "sum(A; B; ...): the sum of several models"
     described["layer"] = "layer(ior=1.5; TOP; BASE): a dielectric coat over a base"
     return dict(sorted(described.items()))
@@ -99,6 +103,10 @@ def parse(spec) -> BRDF:
         return Layer(ior, parse(inner[1]), parse(inner[2]))
     name, _, body = text.partition(":")
     name = name.strip().lower()
+    if name == "bump":
+        from ..bumpbrdf import bump_model
+
+        return bump_model(body)
     if name in ("table", "merl"):
         key, _, path = body.partition("=")
         if key.strip() != "file" or not path.strip():
