@@ -194,7 +194,7 @@ def cmd_prefilter(args, mode=None):
     baked = prefilter.prefilter(image, brdf_spec, mode, args.size, slices=args.slices,
                                 lobes_count=args.lobes, layout=layout, levels=args.levels,
                                 preset=args.preset, method=args.method,
-                                max_size=args.max_size, progress=progress)
+                                max_size=args.max_size, order=args.order, progress=progress)
     baked.meta["source"] = Path(args.input).name
     baked.write(output)
     reason = baked.meta.get("size_reason")
@@ -412,6 +412,8 @@ def _add_prefilter_options(p, with_brdf=True):
                    help="split-sum level-to-roughness mapping")
     p.add_argument("--method", default="direct", choices=["direct", "sh"],
                    help="irradiance: direct convolution or 9 SH coefficients")
+    p.add_argument("--order", type=int, default=8,
+                   help="sh mode: spherical-harmonic order M (default 8)")
     p.add_argument("-o", "--output", required=True, help="output EXR (+ .json sidecar)")
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")

@@ -46,7 +46,9 @@ from .zonal import suggested_supersample, zonal_convolve
 
 __all__ = ["MODES", "PRESETS", "prefilter", "load", "BakedMap", "split_sum_kernel", "dfg_table"]
 
-MODES = ("3d", "2d", "split-sum", "phong", "irradiance")
+MODES = ("3d", "2d", "split-sum", "phong", "irradiance", "sh")
+#: Default spherical-harmonic order of the ``sh`` mode.
+SH_ORDER = 8
 #: Level fraction x = l / (levels - 1) -> perceptual roughness of that level.
 PRESETS = {
     "khronos": lambda x: x,  # glTF IBL sampler: lod = roughness * (levels - 1)
@@ -346,6 +348,11 @@ class BakedMap:
             return self._shade_lobes(mu, r, toward)
         if self.mode == "irradiance":
             return self._sampler("irradiance")(n) * np.asarray(self.meta["color"])
+        if self.mode == "sh":
+            from .sh_reflection import SHReflection
+
+            table = self.layers["sh"]  # row 0: environment; rows 1..K: the lobe
+            return SHReflection(table[0], table[1:]).shade(normal, view)
         return self._shade_split_sum(mu, r)
 
     def _shade_lobes(self, mu, r, toward):
@@ -473,7 +480,7 @@ def _resolve_size(size, max_size, half_widths, image, probe_layout, layers=1):
 
 def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
               layout=None, levels=None, preset="khronos", method="direct", dfg=True,
-              max_size=None, progress=None):
+              max_size=None, order=SH_ORDER, progress=None):
     """Prefilter a probe (cube strip or lat-long (H, W, 3)) for a BRDF; returns a BakedMap.
 
     size: lat-long output height N (maps are N x 2N), or the base cube face for
@@ -483,18 +490,20 @@ def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_coun
     slices / lobes_count: the lobe fit (3d, 2d, phong tables).
     levels / preset: the split-sum chain (default: 6 levels, fewer for small sizes).
     method: ``direct`` or ``sh`` (irradiance). dfg: include the split-sum DFG table.
+    order: the ``sh`` mode's spherical-harmonic order M (bake.sh_reflection; size
+    is not used there).
     ``model_or_fit``: a spec, a BRDF or a lobes.Fit (3d/2d).
     progress(fraction, message) is called after the fit and after every slice.
     """
     return run_steps(prefilter_steps(image, model_or_fit, mode, size, slices=slices,
                                      lobes_count=lobes_count, layout=layout, levels=levels,
                                      preset=preset, method=method, dfg=dfg,
-                                     max_size=max_size), progress)
+                                     max_size=max_size, order=order), progress)
 
 
 def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
                     layout=None, levels=None, preset="khronos", method="direct", dfg=True,
-                    max_size=None, threads=None):
+                    max_size=None, threads=None, order=SH_ORDER):
     """:func:`prefilter` as a generator: yields (fraction, message) after each step (the
     fit, each pair of slices filtered on two threads) and returns the BakedMap.
 
@@ -515,6 +524,8 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
         if size in (None, "auto"):
             raise BakeError("the split-sum mode needs a face size (not auto)")
         return (yield from _split_sum(image, probe_layout, model, size, levels, preset, dfg))
+    if mode == "sh":
+        return (yield from _sh(image, probe_layout, model, order))
     maps = probe_maps(image, probe_layout)
     threads = threads or min(2, os.cpu_count() or 1)
     if mode == "irradiance":
@@ -662,6 +673,41 @@ def _irradiance(maps, model, image, probe_layout, size, max_size, method):
                  "size_reason": reason})
     yield 1.0, "filtered the irradiance"
     return BakedMap("irradiance", {"irradiance": irradiance}, meta)
+
+
+def _sh(image, probe_layout, model, order):
+    """The spherical-harmonic path (bake.sh_reflection): environment and lobe
+    coefficients to ``order``; a bump BRDF's lobe from its facets (eq. 7)."""
+    from . import sh, sh_reflection
+
+    order = int(order)
+    if not 1 <= order <= 32:
+        raise BakeError(f"the SH order must be between 1 and 32, not {order}")
+    bump = getattr(model, "_bump_spec", None)
+    if not model.isotropic and bump is None:
+        raise BakeError(f"the sh mode needs an isotropic BRDF (or a bump: table), not "
+                        f"{model.spec}")
+    environment = sh.project(image, probe_layout, order)
+    yield 0.2, f"projected the probe to order {order}"
+    if bump is not None:
+        from .bumpbrdf import BumpSurface, heights_of, parse_spec
+
+        params = parse_spec(bump[len("bump:"):])
+        surface = BumpSurface(heights_of(params), ior=params["ior"], k=params["k"],
+                              mirror=bool(params["mirror"]))
+        lobe = sh_reflection.facet_coefficients(surface, order)
+        source = "facets"
+    else:
+        lobe = sh_reflection.lobe_coefficients(model, order)
+        source = "quadrature"
+    yield 1.0, f"lobe coefficients at {lobe.shape[0]} tilts ({source})"
+    meta = _base_meta("sh", model, probe_layout, image.shape, order)
+    meta.update({"order": order, "alphas": lobe.shape[0], "lobe_source": source,
+                 "layout": "sh"})
+    # One image (K + 1, N, 3): row 0 the environment's coefficients, rows 1..K the
+    # lobe's at the K tilts (EXR layers share one size).
+    layers = {"sh": np.concatenate([environment[None], lobe]).astype(np.float32)}
+    return BakedMap("sh", layers, meta)
 
 
 def _split_sum(image, probe_layout, model, size, levels, preset, dfg):

@@ -23,7 +23,12 @@ Prints, in one run:
    measured) timed and measured in the same run (target: < 3 s); "step s"
    is the longest step (one UI timer tick: how long Esc can wait);
 6. eight materials baked from one probe in one session against the mean
-   of their single cold bakes (target: less than 3x).
+   of their single cold bakes (target: less than 3x);
+7. the spherical-harmonic path (bake.sh_reflection, Cabral et al. sections
+   7-8): a GGX 0.5 sphere (64 x 64 px) in forest.exr (6 x 64^2 probe), relative
+   RMS error of luminance against the brute-force integral as the order M
+   grows, its build and shading times, beside the 3D map's error (16 slices,
+   Auto size) on the same pixels.
 
     .venv/bin/python benchmarks/prefilter.py [--quick] [--only 5,6]
 """
@@ -109,12 +114,15 @@ def method_error(forest, quick):
         runs = [("3d", 8), ("3d", 16), ("2d", 16)]
         if spec.startswith("ggx"):
             runs.append(("split-sum", 0))
+        runs += [("sh", -8), ("sh", -16)]  # negative: the SH order M
         for mode, slices in runs:
             baked = prefilter.prefilter(probe, spec, mode, size if mode != "split-sum" else
-                                        probe.shape[0], slices=max(slices, 2))
+                                        probe.shape[0], slices=max(slices, 2),
+                                        order=max(-slices, 1))
             approx = baked.shade(normals, views) @ LUM
             error = np.abs(approx - truth) / np.maximum(truth, 1e-6)
-            label = f"{mode} K={slices}" if slices else mode
+            label = f"{mode} M={-slices}" if slices < 0 else (
+                f"{mode} K={slices}" if slices else mode)
             print(f"   {spec:22s} {label:18s} {np.median(error):7.3f} "
                   f"{np.percentile(error, 95):7.3f} {np.median(error[grazing]):15.3f}")
 
@@ -388,10 +396,38 @@ def eight_materials():
           f"filtered once per probe (bake.probe_maps.ProbeMaps.filtered)")
 
 
+def sh_convergence(forest):
+    from bake import reference
+
+    probe = envmap.convert(forest, "latlong", "cube", 64)
+    spec = "ggx:roughness=0.5"
+    normals, views, mask = reference.sphere_buffers(64)
+    normals, views = normals[mask], views[mask]
+    truth = reference.render(brdf.parse(spec), probe, "cube", normals, views) @ LUM
+
+    def error(values):
+        return float(np.sqrt(np.sum((values @ LUM - truth) ** 2) / np.sum(truth**2)))
+
+    print(f"7. SH path, {spec} sphere in forest.exr ({len(normals)} pixels, probe 6 x 64^2): "
+          f"relative RMS against brute force")
+    print(f"   {'order M':>8s} {'error':>8s} {'build s':>8s} {'shade s':>8s}")
+    for order in (2, 4, 8, 12, 16, 24):
+        start = time.perf_counter()
+        baked = prefilter.prefilter(probe, spec, "sh", order=order)
+        built = time.perf_counter() - start
+        start = time.perf_counter()
+        values = baked.shade(normals, views)
+        shaded = time.perf_counter() - start
+        print(f"   {order:8d} {error(values):8.4f} {built:8.2f} {shaded:8.2f}")
+    baked = prefilter.prefilter(probe, spec, "3d", "auto")
+    print(f"   3D map (16 slices, {baked.meta['size']} rows): "
+          f"{error(baked.shade(normals, views)):.4f}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer samples, smaller maps")
-    parser.add_argument("--only", default="1,2,3,4,5,6", help="sections to run, e.g. 5,6")
+    parser.add_argument("--only", default="1,2,3,4,5,6,7", help="sections to run, e.g. 5,6")
     args = parser.parse_args()
     sections = {int(x) for x in args.only.split(",")}
     forest, _ = exr.read(studio_lights() / "forest.exr")
@@ -407,6 +443,8 @@ def main():
         auto_bakes(args.quick)
     if 6 in sections:
         eight_materials()
+    if 7 in sections:
+        sh_convergence(forest)
 
 
 if __name__ == "__main__":
