@@ -54,6 +54,7 @@ import hashlib
 import math
 import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -393,33 +394,41 @@ def bump_table(surface, *, thetas=24, phis=None, isotropic=True, azimuths=24,
     projected = band[:, None] * width[None, :]
     cap = np.pi * np.sin(high[0]) ** 2  # the polar cap's projected solid angle (2 pi band)
     values = np.zeros((thetas, 1 if isotropic else phis, thetas, phis))
-    for index, theta in enumerate(incident):
-        for column, phi in enumerate(directions[index]):
-            wi = np.array([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
-                           math.cos(theta)])
-            r, power = surface.scatter(wi)
-            theta_o = np.arccos(np.clip(r[:, 2], -1, 1))
-            row = np.clip(np.rint(theta_o / (np.pi / 2) * (thetas - 1)).astype(np.intp),
-                          0, thetas - 1)
-            azimuth = np.arctan2(r[:, 1], r[:, 0])
-            if isotropic:
-                relative = np.abs(np.mod(azimuth - phi + np.pi, 2 * np.pi) - np.pi)
-                col = np.clip(np.rint(relative / step).astype(np.intp), 0, phis - 1)
-            else:
-                col = np.rint(np.mod(azimuth, 2 * np.pi) / step).astype(np.intp) % phis
-            flux = np.bincount(row * phis + col, power, thetas * phis).reshape(thetas, phis)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                f = flux / (surface.area * math.cos(theta) * projected)
-            f[0, :] = flux[0].sum() / (surface.area * math.cos(theta) * cap)
-            target = column if not isotropic else 0
-            if isotropic:
-                values[index, 0] += f / len(directions[index])
-            elif index == 0:
-                values[index, :] = f
-            else:
-                values[index, target] = f
-        if progress is not None:
-            progress((index + 1) / thetas)
+
+    def cells(task):
+        """f over the outgoing cells (thetas, phis) for one incident direction."""
+        theta, phi = task
+        wi = np.array([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
+                       math.cos(theta)])
+        r, power = surface.scatter(wi)
+        theta_o = np.arccos(np.clip(r[:, 2], -1, 1))
+        row = np.clip(np.rint(theta_o / (np.pi / 2) * (thetas - 1)).astype(np.intp),
+                      0, thetas - 1)
+        azimuth = np.arctan2(r[:, 1], r[:, 0])
+        if isotropic:
+            relative = np.abs(np.mod(azimuth - phi + np.pi, 2 * np.pi) - np.pi)
+            col = np.clip(np.rint(relative / step).astype(np.intp), 0, phis - 1)
+        else:
+            col = np.rint(np.mod(azimuth, 2 * np.pi) / step).astype(np.intp) % phis
+        flux = np.bincount(row * phis + col, power, thetas * phis).reshape(thetas, phis)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = flux / (surface.area * math.cos(theta) * projected)
+        f[0, :] = flux[0].sum() / (surface.area * math.cos(theta) * cap)
+        return f
+
+    # NumPy releases the GIL in the large array operations: two threads use both cores.
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        for index, theta in enumerate(incident):
+            tasks = [(theta, phi) for phi in directions[index]]
+            for column, f in enumerate(pool.map(cells, tasks)):
+                if isotropic:
+                    values[index, 0] += f / len(tasks)
+                elif index == 0:
+                    values[index, :] = f
+                else:
+                    values[index, column] = f
+            if progress is not None:
+                progress((index + 1) / thetas)
     if isotropic:
         raw = values[:, 0]
         table = 0.5 * (raw + raw.transpose(1, 0, 2)) if reciprocal else raw

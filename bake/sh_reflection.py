@@ -58,11 +58,6 @@ def alpha_nodes(count=ALPHAS) -> np.ndarray:
     return alphas
 
 
-def _table_alphas(count):
-    """(K,) the spline's node positions: equal steps on [0, pi/2]."""
-    return np.linspace(0.0, np.pi / 2, count)
-
-
 def lobe_coefficients(model, order, alphas=ALPHAS, resolution=None) -> np.ndarray:
     """(K, N, 3) coefficients a_lm(alpha_j) of h(i) = f_r(i, v) max(0, n . i) in the
     view frame, for an isotropic library BRDF, by Gauss-Legendre x uniform
@@ -84,27 +79,32 @@ def lobe_coefficients(model, order, alphas=ALPHAS, resolution=None) -> np.ndarra
     return out
 
 
-def facet_coefficients(surface, order, alphas=ALPHAS, azimuths=8) -> np.ndarray:
+def facet_coefficients(surface, order, alphas=17, azimuths=4) -> np.ndarray:
     """(K, N, 3) a_lm(alpha_j) straight from a bump surface's reflected beams (eq. 7,
     section 8): for a view v at tilt alpha (and ``azimuths`` azimuths, averaged),
     the beams surface.scatter(v) returns are the facets' mirror directions i_f
     and their weights x A cos alpha (shadowing and masking are symmetric in l
     and v), so a_lm = sum_f weight_f Y_lm(i_f in the view frame). Grey (the
-    facets' Fresnel factor is one number), repeated in three channels."""
-    out = np.zeros((alphas, sh.count(order)))
-    for j, alpha in enumerate(alpha_nodes(alphas)):
+    facets' Fresnel factor is one number), repeated in three channels. Two
+    threads (NumPy releases the GIL in the large array operations)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(task):
+        alpha, phi = task
         s, c = math.sin(alpha), math.cos(alpha)
-        for k in range(azimuths):
-            phi = 2 * np.pi * (k + 0.5) / azimuths
-            v = np.array([s * math.cos(phi), s * math.sin(phi), c])
-            directions, power = surface.scatter(v)
-            # View frame: z = v, x along the normal's part normal to v.
-            x = np.array([0.0, 0.0, 1.0]) - c * v
-            x = x / np.linalg.norm(x) if s > 1e-9 else np.array([math.cos(phi), math.sin(phi), 0.0])
-            frame = np.stack([x, np.cross(v, x), v])
-            local = directions @ frame.T
-            out[j] += (power / (surface.area * c)) @ sh.basis(local, order) / azimuths
-    return np.repeat(out[..., None], 3, -1)
+        v = np.array([s * math.cos(phi), s * math.sin(phi), c])
+        directions, power = surface.scatter(v)
+        # View frame: z = v, x along the normal's part normal to v.
+        x = np.array([0.0, 0.0, 1.0]) - c * v
+        x = x / np.linalg.norm(x) if s > 1e-9 else np.array([math.cos(phi), math.sin(phi), 0.0])
+        frame = np.stack([x, np.cross(v, x), v])
+        return (power / (surface.area * c)) @ sh.basis(directions @ frame.T, order) / azimuths
+
+    tasks = [(alpha, 2 * np.pi * (k + 0.5) / azimuths)
+             for alpha in alpha_nodes(alphas) for k in range(azimuths)]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        parts = np.array(list(pool.map(one, tasks))).reshape(alphas, azimuths, -1)
+    return np.repeat(parts.sum(1)[..., None], 3, -1)
 
 
 def catmull_rom(table, alpha) -> np.ndarray:
