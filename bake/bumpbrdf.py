@@ -63,9 +63,11 @@ from .brdf import fresnel
 from .brdf.params import SpecError
 from .brdf.tabulated import AnisotropicTable, IsotropicTable
 from .errors import BakeError
+from .progress import run_steps
 
 __all__ = ["read_heights", "check_heights", "gaussian_surface", "white_noise", "grooves",
-           "facets", "horizon_angles", "BumpSurface", "bump_table", "parse_spec",
+           "facets", "horizon_angles", "horizon_steps", "BumpSurface", "bump_table",
+           "bump_table_steps", "bump_model", "bump_model_steps", "parse_spec",
            "reciprocity_error", "COMPASS", "MIN_SIZE", "MAX_SIZE"]
 
 #: Compass directions of the horizon tables (the paper's 24).
@@ -241,12 +243,9 @@ def _crossings(angle, reach):
     return [crossing for crossing in out if crossing[4] <= reach + 1e-9]
 
 
-def horizon_angles(h, directions=COMPASS, reach=None) -> np.ndarray:
-    """(directions, m^2) horizon elevation angles (radians, clamped at 0) of every
-    vertex of h (m, m) towards azimuth 2 pi k / directions (azimuth 0 along +x, pi/2
-    along +y): the largest atan((h(p + t d) - h(p)) / t) over the ray's crossings
-    with facet edges (:func:`_crossings`) within ``reach`` texels (default m, one
-    period of the tile)."""
+def horizon_steps(h, directions=COMPASS, reach=None):
+    """:func:`horizon_angles` as a generator: yields (fraction, message) after each
+    compass direction and returns the (directions, m^2) table."""
     m = h.shape[0]
     reach = m if reach is None else int(reach)
     neighbour = {0: np.roll(h, -1, axis=1), 1: np.roll(h, -1, axis=0),
@@ -260,7 +259,17 @@ def horizon_angles(h, directions=COMPASS, reach=None) -> np.ndarray:
                 value = value + t * (np.roll(neighbour[kind], (-dy, -dx), axis=(0, 1)) - value)
             np.maximum(best, (value - h) / distance, out=best)
         out[k] = np.arctan(best).ravel()
+        yield (k + 1) / directions, f"horizon table {k + 1}/{directions}"
     return out
+
+
+def horizon_angles(h, directions=COMPASS, reach=None) -> np.ndarray:
+    """(directions, m^2) horizon elevation angles (radians, clamped at 0) of every
+    vertex of h (m, m) towards azimuth 2 pi k / directions (azimuth 0 along +x, pi/2
+    along +y): the largest atan((h(p + t d) - h(p)) / t) over the ray's crossings
+    with facet edges (:func:`_crossings`) within ``reach`` texels (default m, one
+    period of the tile)."""
+    return run_steps(horizon_steps(h, directions, reach))
 
 
 def _lattice(n=LATTICE) -> np.ndarray:
@@ -280,25 +289,32 @@ class BumpSurface:
 
     heights: (m, m) in texel units (already scaled). Fresnel per facet: a
     dielectric of index ``ior`` (k = 0), a conductor ior + i k (k > 0), or 1
-    (``mirror=True``; for the white furnace test).
+    (``mirror=True``; for the white furnace test). ``horizons``: the table
+    :func:`horizon_angles` gives, when already computed.
     """
 
-    def __init__(self, heights, *, ior=1.5, k=0.0, mirror=False, reach=None):
+    def __init__(self, heights, *, ior=1.5, k=0.0, mirror=False, reach=None, horizons=None):
         self.heights = check_heights(heights)
         self.size = self.heights.shape[0]
-        slope = _slope_rms(self.heights)
+        self.slope = self.check_slope(self.heights)
+        self.normals, self.areas, self.verts = facets(self.heights)
+        self.horizons = horizon_angles(self.heights, reach=reach) if horizons is None \
+            else np.asarray(horizons)
+        self.area = float(self.size * self.size)
+        self.ior, self.k, self.mirror = float(ior), float(k), bool(mirror)
+        self._lattice = _lattice()
+
+    @staticmethod
+    def check_slope(heights) -> float:
+        """The RMS facet slope per axis of scaled heights; BakeError outside SLOPE_RANGE."""
+        slope = _slope_rms(check_heights(heights))
         if not SLOPE_RANGE[0] <= slope <= SLOPE_RANGE[1]:
             what = ("nearly flat: a near-delta the table cannot resolve (use ggx with a "
                     "small roughness)" if slope < SLOPE_RANGE[0] else
                     "steeper than 84 degrees on average: heights are in texel units, so "
                     "the scale is probably wrong")
             raise BakeError(f"the scaled height field has an RMS slope of {slope:.3g}: {what}")
-        self.slope = slope
-        self.normals, self.areas, self.verts = facets(self.heights)
-        self.horizons = horizon_angles(self.heights, reach=reach)
-        self.area = float(self.size * self.size)
-        self.ior, self.k, self.mirror = float(ior), float(k), bool(mirror)
-        self._lattice = _lattice()
+        return slope
 
     def fresnel(self, cos_theta):
         """(F,) reflectance of facets at cos(incidence)."""
@@ -367,15 +383,22 @@ def _incident_theta(nodes):
 
 def bump_table(surface, *, thetas=24, phis=None, isotropic=True, azimuths=24,
                reciprocal=True, progress=None):
-    """The BRDF table of ``surface`` (a :class:`BumpSurface`).
+    """:func:`bump_table_steps` run to its end; ``progress(fraction, message)``."""
+    return run_steps(bump_table_steps(surface, thetas=thetas, phis=phis, isotropic=isotropic,
+                                      azimuths=azimuths, reciprocal=reciprocal), progress)
+
+
+def bump_table_steps(surface, *, thetas=24, phis=None, isotropic=True, azimuths=24,
+                     reciprocal=True):
+    """The BRDF table of ``surface`` (a :class:`BumpSurface`), as a generator that
+    yields (fraction, message) after each incident elevation.
 
     isotropic: values (thetas, thetas, phis, 3) over (theta_i, theta_o, phi_d)
     (phis default 25: 7.5 degree steps on [0, pi]), each incident elevation
     averaged over ``azimuths`` incident azimuths; otherwise (thetas, phis,
     thetas, phis, 3) over (theta_i, phi_i, theta_o, phi_o) (phis default 32).
-    ``reciprocal``: average f(l, v) with f(v, l). ``progress(fraction)`` is
-    called after each incident elevation. Returns (values, raw) where raw is the
-    table before the reciprocity average (for :func:`reciprocity_error`).
+    ``reciprocal``: average f(l, v) with f(v, l). Returns (values, raw) where raw
+    is the table before the reciprocity average (for :func:`reciprocity_error`).
     """
     phis = (25 if isotropic else 32) if phis is None else int(phis)
     low, high = _theta_cells(thetas)
@@ -427,8 +450,7 @@ def bump_table(surface, *, thetas=24, phis=None, isotropic=True, azimuths=24,
                     values[index, :] = f
                 else:
                     values[index, column] = f
-            if progress is not None:
-                progress((index + 1) / thetas)
+            yield (index + 1) / thetas, f"incident elevation {index + 1}/{thetas}"
     if isotropic:
         raw = values[:, 0]
         table = 0.5 * (raw + raw.transpose(1, 0, 2)) if reciprocal else raw
@@ -555,6 +577,16 @@ class BumpAnisotropicTable(_BumpTable, AnisotropicTable):
     """Anisotropic BRDF table computed from a bump height field."""
 
 
+def scaled_steps(steps, start, stop):
+    """Re-yield a step generator's fractions mapped onto [start, stop]; returns its value."""
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield start + (stop - start) * fraction, message
+
+
 def _cache_folder() -> Path:
     root = os.environ.get("GLOSSY_CACHE_DIR") or Path.home() / ".cache" / "glossy"
     return Path(root) / "bump"
@@ -562,7 +594,15 @@ def _cache_folder() -> Path:
 
 def bump_model(body: str, progress=None):
     """The table model of a ``bump:`` spec body; computed once per content and kept in
-    memory and in $GLOSSY_CACHE_DIR (default ~/.cache/glossy)/bump/<hash>.npz."""
+    memory and in $GLOSSY_CACHE_DIR (default ~/.cache/glossy)/bump/<hash>.npz.
+    ``progress(fraction, message)`` while it is computed."""
+    return run_steps(bump_model_steps(body), progress)
+
+
+def bump_model_steps(body: str):
+    """:func:`bump_model` as a generator of (fraction, message): the horizon tables
+    (one step per compass direction) then the table (one per incident elevation).
+    Writes the cache file only at the end."""
     params = parse_spec(body)
     spec = _canonical(params)
     content = ""
@@ -583,11 +623,14 @@ def bump_model(body: str, progress=None):
             values = None
     if values is None:
         heights = heights_of(params)
+        BumpSurface.check_slope(heights)
+        horizons = yield from scaled_steps(horizon_steps(heights), 0.0, 0.15)
         surface = BumpSurface(heights, ior=params["ior"], k=params["k"],
-                              mirror=bool(params["mirror"]))
+                              mirror=bool(params["mirror"]), horizons=horizons)
         phis = int(params["phis"]) or None
-        values, _ = bump_table(surface, thetas=int(params["thetas"]), phis=phis,
-                               isotropic=bool(params["isotropic"]), progress=progress)
+        values, _ = yield from scaled_steps(
+            bump_table_steps(surface, thetas=int(params["thetas"]), phis=phis,
+                             isotropic=bool(params["isotropic"])), 0.15, 1.0)
         try:
             cached.parent.mkdir(parents=True, exist_ok=True)
             temporary = cached.with_name(f".{key}.{os.getpid()}.npz")
