@@ -474,7 +474,7 @@ def reciprocity_error(raw, floor=0.05):
 
 #: Keys of a bump: spec, their defaults and ranges (file is a path; preset a word).
 _NUMBERS = {
-    "scale": (1.0, 1e-6, 1e4), "ior": (1.5, 1.0001, 10.0), "k": (0.0, 0.0, 20.0),
+    "scale": (1.0, 1e-6, 1e4), "ior": (1.5, 0.01, 10.0), "k": (0.0, 0.0, 20.0),
     "mirror": (0, 0, 1), "isotropic": (1, 0, 1), "size": (256, MIN_SIZE, MAX_SIZE),
     "slope": (0.2, 1e-3, 5.0), "seed": (0, 0, 2**31 - 1), "correlation": (4.0, 0.5, 64.0),
     "period": (16.0, 2.0, 1024.0), "depth": (4.0, 0.01, 512.0), "thetas": (24, 4, 90),

@@ -126,6 +126,34 @@ def _draw_lamps(layout, material, scene):
                 icon="INFO")
 
 
+def _draw_bump(layout, column, settings):
+    """The Bump-Map BRDF fields, the compute button, its status and the plot."""
+    column.prop(settings, "bump_source")
+    if settings.bump_source == "IMAGE":
+        column.prop(settings, "bump_file")
+        column.prop(settings, "bump_texel")
+        column.prop(settings, "bump_height")
+    else:
+        column.prop(settings, "bump_size")
+        if settings.bump_source == "grooves":
+            column.prop(settings, "bump_period")
+            column.prop(settings, "bump_depth")
+        else:
+            column.prop(settings, "bump_slope")
+            column.prop(settings, "bump_seed")
+    column.prop(settings, "bump_ior")
+    column.prop(settings, "bump_k")
+    column.prop(settings, "bump_isotropic")
+    layout.operator("glossy.bump_brdf", icon="MOD_DISPLACE")
+    if settings.bump_status:
+        _reason(layout, settings.bump_status, icon="INFO")
+    image = bpy.data.images.get(f"Glossy BRDF {settings.id_data.name}")
+    if image is not None and not bpy.app.background:
+        image.preview_ensure()
+        layout.label(text="f cos in the plane of incidence: 0, 30, 60 degrees")
+        layout.template_icon(icon_value=image.preview.icon_id, scale=8.0)
+
+
 class GLOSSY_PT_material(bpy.types.Panel):
     bl_label = "Glossy"
     bl_idname = "GLOSSY_PT_material"
@@ -146,6 +174,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
         column.prop(settings, "model")
         if settings.model == "CUSTOM":
             column.prop(settings, "spec")
+        elif settings.model == "BUMP":
+            _draw_bump(layout, column, settings)
         elif settings.model == "phong":
             column.prop(settings, "exponent")
             column.prop(settings, "color")

@@ -128,7 +128,18 @@ MODEL_ITEMS = [
     ("ward", "Ward", "Ward 1992 (alpha = roughness)"),
     ("phong", "Phong", "Lewis' physically plausible Phong (exponent from roughness)"),
     ("lambert", "Lambert", "Diffuse"),
+    ("BUMP", "Bump-Map BRDF", "The BRDF of a surface's micro-structure, computed from its "
+     "height field (an image or a preset) after Cabral, Max & Springmeyer"),
     ("CUSTOM", "Custom Spec", "Any bake.brdf spec string"),
+]
+
+BUMP_SOURCES = [
+    ("IMAGE", "Image File", "A height field image (EXR, or 16-bit PNG): one periodic tile"),
+    ("gaussian", "Gaussian", "A Gaussian random surface of the given RMS slope (its BRDF is "
+     "close to Beckmann's)"),
+    ("noise", "White Noise", "Independent random heights (sand-blasted)"),
+    ("grooves", "Grooves", "Parallel cylindrical grooves along the tangent's normal "
+     "(brushed): an anisotropic highlight stretched across them"),
 ]
 
 
@@ -269,15 +280,61 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     validation_bake_hash: bpy.props.StringProperty(
         name="Validated Bake", description="Bake hash at the last validation: a re-bake makes "
         "the figures stale")
+    bump_source: bpy.props.EnumProperty(name="Height Field", items=BUMP_SOURCES,
+                                        default="gaussian")
+    bump_file: bpy.props.StringProperty(
+        name="Height Image", subtype="FILE_PATH",
+        description="EXR or PNG height field, square, one periodic tile of the surface")
+    bump_texel: bpy.props.FloatProperty(
+        name="Texel Size", subtype="DISTANCE", default=1e-5, min=1e-9, max=1.0, precision=6,
+        description="Physical distance between two neighbouring height samples")
+    bump_height: bpy.props.FloatProperty(
+        name="Height of 1.0", subtype="DISTANCE", default=1e-6, min=1e-12, max=1.0,
+        precision=6, description="Physical height of an image value of 1.0 (PNG: full white)")
+    bump_size: bpy.props.IntProperty(name="Size", default=256, min=16, max=1024,
+                                     description="Texels per side of the preset's tile")
+    bump_slope: bpy.props.FloatProperty(name="RMS Slope", default=0.2, min=0.005, max=2.0,
+                                        description="RMS slope per axis of the preset surface")
+    bump_seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    bump_period: bpy.props.FloatProperty(name="Period", default=16.0, min=2.0, max=512.0,
+                                         description="Texels between grooves")
+    bump_depth: bpy.props.FloatProperty(name="Depth", default=4.0, min=0.01, max=256.0,
+                                        description="Depth of a groove, texels (<= period/2)")
+    bump_ior: bpy.props.FloatProperty(
+        name="IOR", default=1.5, min=0.01, max=10.0,
+        description="Index of refraction of the facets (the real part for a conductor)")
+    bump_k: bpy.props.FloatProperty(
+        name="Extinction k", default=0.0, min=0.0, max=20.0,
+        description="Imaginary part of a conductor's index (0: a dielectric)")
+    bump_isotropic: bpy.props.BoolProperty(
+        name="Isotropic", default=True,
+        description="Average over azimuths (a 3D table); off keeps the surface's anisotropy "
+                    "(a 4D table: validation takes it, the 3D map needs an isotropic BRDF)")
+    bump_plot: bpy.props.StringProperty(name="BRDF Plot", subtype="FILE_PATH")
+    bump_status: bpy.props.StringProperty(name="Bump BRDF")
     original: bpy.props.PointerProperty(
         type=bpy.types.Material, name="Original Material",
         description="The material as it was before Glossy attached its lookup "
                     "(kept with a fake user; Clear puts it back)")
 
+    def bump_spec(self) -> str:
+        """The ``bump:`` spec of the Bump-Map BRDF fields (bake.bumpbrdf.parse_spec)."""
+        fresnel = f"ior={self.bump_ior:g},k={self.bump_k:g},isotropic={int(self.bump_isotropic)}"
+        if self.bump_source == "IMAGE":
+            path = bpy.path.abspath(self.bump_file) if self.bump_file else ""
+            scale = self.bump_height / max(self.bump_texel, 1e-12)
+            return f"bump:file={path},scale={scale:.6g},{fresnel}"
+        shape = (f"period={self.bump_period:g},depth={self.bump_depth:g}"
+                 if self.bump_source == "grooves" else
+                 f"slope={self.bump_slope:g},seed={self.bump_seed}")
+        return f"bump:preset={self.bump_source},size={self.bump_size},{shape},{fresnel}"
+
     def brdf_spec(self) -> str:
         color = "/".join(f"{c:g}" for c in self.color)
         if self.model == "CUSTOM":
             return self.spec
+        if self.model == "BUMP":
+            return self.bump_spec()
         if self.model == "ward":
             return f"ward:alpha={self.roughness:g},ks={color}"
         if self.model == "phong":

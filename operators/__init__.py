@@ -2,7 +2,8 @@
 
 import importlib
 
-_MODULE_NAMES = ("export_environment", "capture_probes", "bake_materials", "clear", "validate")
+_MODULE_NAMES = ("export_environment", "capture_probes", "bake_materials", "clear", "validate",
+                 "bump_brdf")
 
 
 def _classes():

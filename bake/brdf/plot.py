@@ -12,7 +12,10 @@ from .. import outputs
 from ..errors import BakeError
 from .vectors import spherical
 
-__all__ = ["plot_brdf", "albedo_curve", "in_plane_slice"]
+__all__ = ["plot_brdf", "albedo_curve", "in_plane_slice", "polar_image"]
+
+#: Curve colours of :func:`polar_image` (uint8 RGB), one per view angle.
+CURVE_COLORS = ((214, 39, 40), (31, 119, 180), (44, 160, 44), (255, 127, 14), (148, 103, 189))
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -28,6 +31,37 @@ def in_plane_slice(model, theta_o_deg, n=721):
     wo = np.array([np.sin(t), 0.0, np.cos(t)])
     value = model.f(wi, np.broadcast_to(wo, wi.shape)) @ LUMINANCE * np.cos(theta)
     return theta, value
+
+
+def polar_image(model, views=(0.0, 30.0, 60.0), height=160):
+    """uint8 RGB (height, 2 height, 3): the in-plane slices of f cos (luminance) as
+    polar curves, one colour per view angle (CURVE_COLORS), each scaled to the
+    largest value over all views; grey half circles at 1/4, 1/2 and 1 of it and a
+    grey line for the normal. Needs no matplotlib (Blender's panel shows it)."""
+    width = 2 * height
+    image = np.full((height, width, 3), 255, np.uint8)
+    radius = height - 6
+    cx, cy = width / 2, height - 3
+
+    def plot(theta, value, color, thickness=1):
+        x = np.rint(cx + value * radius * np.sin(theta)).astype(int)
+        y = np.rint(cy - value * radius * np.cos(theta)).astype(int)
+        for dx in range(-thickness + 1, thickness):
+            for dy in range(-thickness + 1, thickness):
+                xi, yi = np.clip(x + dx, 0, width - 1), np.clip(y + dy, 0, height - 1)
+                image[yi, xi] = color
+
+    circle = np.radians(np.linspace(-90, 90, 2000))
+    for fraction in (0.25, 0.5, 1.0):
+        plot(circle, np.full_like(circle, fraction), (200, 200, 200))
+    plot(np.zeros(400), np.linspace(0, 1, 400), (200, 200, 200))
+    slices = [in_plane_slice(model, view, 2001) for view in views]
+    peak = max(float(np.max(value)) for _, value in slices) or 1.0
+    for index, (theta, value) in enumerate(slices):
+        color = CURVE_COLORS[index % len(CURVE_COLORS)]
+        plot(theta, np.clip(value / peak, 0, 1), color, 2)
+        plot(np.full(200, np.radians(views[index])), np.linspace(0.9, 1.0, 200), color)
+    return image
 
 
 def albedo_curve(model, n=31, samples=2048):
