@@ -13,7 +13,13 @@ Writes to out/demo/:
 - slices.png: slices of both 3D maps at four view elevations (the paper's
   Figure 8), rows Ward then GGX, left to right cos(theta_o) = 0.02 .. 1;
 - fit_error.png: the fits' mean relative RMS error against the number of
-  lobes (the paper's Figure 7).
+  lobes (the paper's Figure 7);
+- bump_brdf.png: BRDFs computed from bump height fields (bake.bumpbrdf, Cabral,
+  Max & Springmeyer's Figure 3): white noise (128^2, RMS slope 0.3) and
+  cylindrical grooves (128^2, period 64, depth 8, along y: each groove has 64
+  distinct facet slopes, finer than the 3.75-degree cells), f cos(theta_o) in
+  the plane of incidence for light at 0, 30 and 60 degrees; for the grooves
+  in the plane across them and along them (the highlight spreads across).
 """
 
 import sys
@@ -78,6 +84,62 @@ def kautz_mccool(image, cube, out, exposure):
     return written
 
 
+def _slice(model, theta_i_deg, azimuth_deg, n=721):
+    """(signed theta_o, f cos theta_o luminance) in the vertical plane at ``azimuth``
+    through the light at theta_i (negative theta_o: the light's side)."""
+    a, t = np.radians(azimuth_deg), np.radians(theta_i_deg)
+    axis = np.array([np.cos(a), np.sin(a), 0.0])
+    wi = -np.sin(t) * axis + np.array([0.0, 0.0, np.cos(t)])  # light on the negative side
+    theta = np.radians(np.linspace(-89.5, 89.5, n))
+    wo = np.sin(theta)[:, None] * axis + np.cos(theta)[:, None] * np.array([0.0, 0.0, 1.0])
+    value = model.f(np.broadcast_to(wi, wo.shape), wo) @ np.array([0.2126, 0.7152, 0.0722])
+    return theta, value * np.cos(theta)
+
+
+def bump_figures(out):
+    """bump_brdf.png: Figure 3-style in-plane plots of BRDFs computed from bumps."""
+    from bake import bumpbrdf
+
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: bump_brdf.png skipped")
+        return []
+    surfaces = {
+        "white noise": bumpbrdf.BumpSurface(bumpbrdf.white_noise(128, 0.3, 0), mirror=True),
+        "grooves": bumpbrdf.BumpSurface(bumpbrdf.grooves(128, 64.0, 8.0), mirror=True),
+    }
+    noise = bumpbrdf.IsotropicTable(bumpbrdf.bump_table(
+        surfaces["white noise"], thetas=24, azimuths=12, progress=LinePrinter())[0])
+    grooves = bumpbrdf.AnisotropicTable(bumpbrdf.bump_table(
+        surfaces["grooves"], thetas=24, phis=32, isotropic=False, progress=LinePrinter())[0])
+    panels = [("white noise (isotropic)", noise, 0.0), ("grooves: across them", grooves, 0.0),
+              ("grooves: along them", grooves, 90.0)]
+    figure = plt.figure(figsize=(13, 4.2))
+    for index, (title, model, azimuth) in enumerate(panels):
+        axis = figure.add_subplot(1, 3, index + 1, projection="polar")
+        for theta_i in (0.0, 30.0, 60.0):
+            theta, value = _slice(model, theta_i, azimuth)
+            line, = axis.plot(theta, value, label=f"light at {theta_i:g} deg")
+            axis.plot([-np.radians(theta_i)] * 2, [0, value.max() * 1.05 + 1e-9], ":",
+                      color=line.get_color())
+        axis.set_theta_zero_location("N")
+        axis.set_theta_direction(-1)
+        axis.set_thetamin(-90)
+        axis.set_thetamax(90)
+        axis.set_title(title, fontsize=10)
+        axis.legend(loc="lower left", fontsize=7)
+    figure.suptitle("BRDF x cos from bump height fields (F = 1), in the plane of incidence",
+                    fontsize=10)
+    path = out / "bump_brdf.png"
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+    return [path]
+
+
 def main() -> int:
     out = ROOT / "out" / "demo"
     out.mkdir(parents=True, exist_ok=True)
@@ -114,6 +176,7 @@ def main() -> int:
     written.append(sheet)
 
     written += kautz_mccool(image, maps["cube"], out, exposure)
+    written += bump_figures(out)
     power = radiant_power(image, "latlong")
     print(f"radiant power (sum L dw, RGB): source {power.round(4)}, "
           f"cube {radiant_power(maps['cube'], 'cube').round(4)}")
