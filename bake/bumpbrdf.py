@@ -63,7 +63,7 @@ from .brdf import fresnel
 from .brdf.params import SpecError
 from .brdf.tabulated import AnisotropicTable, IsotropicTable
 from .errors import BakeError
-from .progress import run_steps
+from .progress import run_steps, scaled_steps
 
 __all__ = ["read_heights", "check_heights", "gaussian_surface", "white_noise", "grooves",
            "facets", "horizon_angles", "horizon_steps", "BumpSurface", "bump_table",
@@ -575,16 +575,6 @@ class BumpIsotropicTable(_BumpTable, IsotropicTable):
 
 class BumpAnisotropicTable(_BumpTable, AnisotropicTable):
     """Anisotropic BRDF table computed from a bump height field."""
-
-
-def scaled_steps(steps, start, stop):
-    """Re-yield a step generator's fractions mapped onto [start, stop]; returns its value."""
-    while True:
-        try:
-            fraction, message = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield start + (stop - start) * fraction, message
 
 
 def _cache_folder() -> Path:

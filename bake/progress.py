@@ -12,8 +12,8 @@ import threading
 import time
 from collections.abc import Callable
 
-__all__ = ["Progress", "LinePrinter", "report", "scaled", "run_steps", "prefixed_steps",
-           "background_steps"]
+__all__ = ["Progress", "LinePrinter", "report", "scaled", "scaled_steps", "run_steps",
+           "prefixed_steps", "background_steps"]
 
 Progress = Callable[[float, str], None]
 
@@ -72,6 +72,16 @@ class LinePrinter:
         else:
             self.stream.write(line + "\n")
         self.stream.flush()
+
+
+def scaled_steps(steps, start: float, stop: float):
+    """Re-yield a step generator's fractions mapped onto [start, stop]; returns its value."""
+    while True:
+        try:
+            fraction, message = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield start + (stop - start) * fraction, message
 
 
 def prefixed_steps(prefix: str, steps):

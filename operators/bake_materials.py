@@ -8,7 +8,7 @@ import numpy as np
 
 from ..bake import atlas, brdf, exr, hybrid, outputs, prefilter, sampling_runtime, separable
 from ..bake.errors import BakeError
-from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled
+from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled, scaled_steps
 from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
@@ -18,17 +18,6 @@ from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
-
-
-def _scaled(steps, start, stop):
-    """Re-yield a step generator's fractions mapped onto [start, stop]; return its value."""
-    while True:
-        try:
-            fraction, message = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield start + (stop - start) * fraction, message
-
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -261,7 +250,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             path = diffuse_path = None
         factors = None
         if lamp_path is not None:
-            factors = yield from _scaled(background_steps(_factor_steps(settings)), 0.0,
+            factors = yield from scaled_steps(background_steps(_factor_steps(settings)), 0.0,
                                          0.1 if path else 1.0)
         if path is None:
             return (yield from _write_bake(material, None, None, None, None, lamp_path, factors,
@@ -274,7 +263,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         runtime = None
         if sampled or runtime_path is not None:
             rows, why = runtime_height(settings, probe, layout)
-            runtime, runtime_reason = yield from _scaled(background_steps(_runtime_steps(
+            runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
                 spec, settings.samples, rows, why, probe, layout, runtime_path is not None)),
                 0.1, 0.3 if runtime_path is not None else 0.95)
         if sampled:
@@ -282,12 +271,12 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             rows, reason, runtime = atlas_meta["slice_height"], runtime_reason, None
         elif settings.method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
-            baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
+            baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                 probe, spec, "split-sum", face, layout=layout)), 0.1, 0.85)
             image, atlas_meta = atlas.pack_split_sum(baked)
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
-            baked = yield from _scaled(background_steps(prefilter.prefilter_steps(
+            baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                 probe, spec, "3d" if settings.method == "hybrid" else settings.method, size,
                 slices=settings.slices,
                 lobes_count=settings.lobes if settings.method in ("3d", "hybrid") else 1,
@@ -300,7 +289,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         diffuse = None
         if diffuse_path is not None:
             color = "/".join(f"{c:g}" for c in settings.diffuse)
-            irradiance = yield from _scaled(background_steps(prefilter.prefilter_steps(
+            irradiance = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                 probe, f"lambert:color={color}", "irradiance", size, layout=layout,
                 max_size=max_size)), 0.85, 0.95)
             diffuse = atlas.pack_irradiance(irradiance)
