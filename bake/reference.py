@@ -29,6 +29,9 @@ Two implementations of the same sum:
   default tolerance; tolerance 0 reproduces it to rounding.
 """
 
+import os
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -270,23 +273,42 @@ def _evaluate(model, frames, wo_local, directions, flux, pixel):
 
 
 def render_steps(model, probe, layout, normals, views, *, tangents=None,
-                 tangent_hint=(0.3, 0.5, 0.8), tolerance=None, chunk=512):
+                 tangent_hint=(0.3, 0.5, 0.8), tolerance=None, chunk=512, threads=None):
     """:func:`render` as a generator: yields (fraction, message) after each chunk of
-    pixels and returns the (N, 3) radiance."""
+    pixels and returns the (N, 3) radiance. Chunks run on ``threads`` worker
+    threads (default: two, or one on a single core; NumPy releases the GIL in
+    the array work), at most one chunk ahead per thread; closing the generator
+    (Esc) cancels the chunks not started and waits only for those running."""
     layout = get_layout(layout)
     probe = np.asarray(probe)
     normals, views, tangents = pixel_arrays(normals, views, tangents)
     tolerance = DEFAULT_TOLERANCE if tolerance is None else float(tolerance)
     levels = _pyramid(probe, layout)
     out = np.zeros((len(normals), 3))
-    for start in range(0, len(normals), chunk):
+    threads = threads or min(2, os.cpu_count() or 1)
+
+    def job(start):
         stop = min(start + chunk, len(normals))
         frames = _frames(normals[start:stop], None if tangents is None
                          else tangents[start:stop], tangent_hint)
         wo_local = np.einsum("pij,pj->pi", frames, views[start:stop])
-        out[start:stop] = _render_chunk(model, layout, probe.shape[:2], levels, frames,
-                                        wo_local, tolerance)
-        yield stop / len(normals), f"reference: {stop} of {len(normals)} pixels"
+        return stop, _render_chunk(model, layout, probe.shape[:2], levels, frames, wo_local,
+                                   tolerance)
+
+    starts = list(range(0, len(normals), chunk))
+    pool = ThreadPoolExecutor(max_workers=threads)
+    try:
+        pending = deque(pool.submit(job, start) for start in starts[:2 * threads])
+        submitted = len(pending)
+        for start in starts:
+            stop, value = pending.popleft().result()
+            out[start:stop] = value
+            if submitted < len(starts):
+                pending.append(pool.submit(job, starts[submitted]))
+                submitted += 1
+            yield stop / len(normals), f"reference: {stop} of {len(normals)} pixels"
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
     return out
 
 
