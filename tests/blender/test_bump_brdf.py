@@ -20,6 +20,12 @@ def test_a_bump_material_is_computed_plotted_baked_and_attached(tmp_path, hdri_d
     assert r["plot"].endswith("Sand.png") and "table 24x24x25" in r["status"]
     assert r["capture"] == r["bake"] == r["attach"] == ["FINISHED"]
     assert r["cache_files"] == 1  # the table the bake used is the one computed
+    # Validated against the NumPy reference (no Cycles BSDF for a table), in EEVEE:
+    # the node lookup's error on a 48 px render, measured 13% (the 3D map's own error
+    # for this wide lobe is about 15% in NumPy, below); bound 20%.
+    assert r["validate"] == ["FINISHED"] and r["validation_truth"] == "reference"
+    assert any("NumPy reference only" in note for note in r["validation_notes"])
+    assert r["validation_error"] < 0.2, r["validation_error"]
     # The baked 3D map's NumPy twin (what the nodes compute) against the brute-force
     # integral of the same table over the probe, beside the same 3D map pipeline on
     # the closed form the surface follows (Beckmann, alpha = sqrt(2) x 0.25, F = 1):

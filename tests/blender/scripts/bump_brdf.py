@@ -46,6 +46,19 @@ report["bake"] = sorted(bpy.ops.glossy.bake_materials())
 report["attach"] = sorted(bpy.ops.glossy.attach_materials())
 report["bake_path"] = bpy.path.abspath(settings.bake_path)
 report["probe_path"] = bpy.path.abspath(sphere.glossy.probe_path)
+# Validation takes the bump BRDF like any other: Cycles has no such BSDF, so the
+# NumPy reference is the truth (said in the report).
+bpy.ops.object.select_all(action="DESELECT")
+sphere.select_set(True)
+scene.glossy.validate_resolution = 48
+scene.glossy.validate_samples = 4
+scene.glossy.validate_eevee_samples = 1
+report["validate"] = sorted(bpy.ops.glossy.validate())
+validation = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
+figures = validation["objects"][0]["figures"]
+report["validation_truth"] = figures["truth"]
+report["validation_error"] = figures["methods"]["eevee_glossy"]["relative_rms"]
+report["validation_notes"] = validation["notes"]
 
 # A height field that is not an image: one clear message, nothing written.
 bad_file = workdir / "heights.png"
