@@ -115,8 +115,11 @@ def _draw_lamps(layout, material, scene):
             _reason(box, f"Lit by {names or 'no lamp'} (unshadowed)", icon="LIGHT")
     for name, reason in skipped:
         _reason(box, f"{name} skipped: {reason}", icon="ERROR")
+    spec = settings.brdf_spec()
+    if spec.strip().lower().startswith("bump:"):
+        return  # parsing would compute its table: never in a redraw
     try:
-        model = brdf.parse(settings.brdf_spec())
+        model = brdf.parse(spec)
     except Exception:  # a bad spec is reported by the bake
         return
     if getattr(model, "name", "") == "ggx" and model.isotropic:
@@ -148,10 +151,9 @@ def _draw_bump(layout, column, settings):
     if settings.bump_status:
         _reason(layout, settings.bump_status, icon="INFO")
     image = bpy.data.images.get(f"Glossy BRDF {settings.id_data.name}")
-    if image is not None and not bpy.app.background:
-        image.preview_ensure()
+    if image is not None:  # the plot glossy.bump_brdf wrote
         layout.label(text="f cos in the plane of incidence: 0, 30, 60 degrees")
-        layout.template_icon(icon_value=image.preview.icon_id, scale=8.0)
+        layout.template_icon(icon_value=layout.icon(image), scale=8.0)
 
 
 class GLOSSY_PT_material(bpy.types.Panel):

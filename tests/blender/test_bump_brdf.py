@@ -18,6 +18,11 @@ def test_a_bump_material_is_computed_plotted_baked_and_attached(tmp_path, hdri_d
     assert r["spec"].startswith("bump:preset=gaussian,size=64,slope=0.25")
     assert r["compute"] == ["FINISHED"] and r["plot_image"]
     assert r["plot"].endswith("Sand.png") and "table 24x24x25" in r["status"]
+    # The material panel draws every Bump-Map field, the button and the plot.
+    assert r["panel_missing"] == []
+    assert {"bump_source", "bump_file", "bump_texel", "bump_height", "bump_period",
+            "bump_depth", "bump_slope", "bump_seed", "bump_ior", "bump_k"} <= set(r["panel_props"])
+    assert {"operator", "template_icon", "icon"} <= set(r["panel_calls"])
     assert r["capture"] == r["bake"] == r["attach"] == ["FINISHED"]
     assert r["cache_files"] == 1  # the table the bake used is the one computed
     # Validated against the NumPy reference (no Cycles BSDF for a table), in EEVEE:

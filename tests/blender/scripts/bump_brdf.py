@@ -41,6 +41,35 @@ report["compute"] = sorted(bpy.ops.glossy.bump_brdf())
 report["plot"] = settings.bump_plot
 report["status"] = settings.bump_status
 report["plot_image"] = f"Glossy BRDF {material.name}" in bpy.data.images
+
+
+class Recorder:
+    """A stand-in for a panel's layout: records every call (background mode draws
+    no panels), so the Glossy material panel's draw code runs on these settings."""
+
+    def __init__(self, calls):
+        self.calls = calls
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.calls.append([name, [a if isinstance(a, (str, int, float)) else type(a).__name__
+                                      for a in args], sorted(kwargs)])
+            return self
+        return call
+
+
+from types import SimpleNamespace  # noqa: E402
+
+from glossy.glossy_addon.panels import GLOSSY_PT_material  # noqa: E402
+
+calls = []
+for source in ("IMAGE", "grooves", "gaussian"):
+    settings.bump_source = source
+    GLOSSY_PT_material.draw(SimpleNamespace(layout=Recorder(calls)),
+                            SimpleNamespace(material=material, object=sphere, scene=scene))
+report["panel_props"] = sorted({c[1][1] for c in calls if c[0] == "prop"})
+report["panel_missing"] = [name for name in report["panel_props"] if not hasattr(settings, name)]
+report["panel_calls"] = sorted({c[0] for c in calls})
 report["capture"] = sorted(bpy.ops.glossy.capture_probes())
 report["bake"] = sorted(bpy.ops.glossy.bake_materials())
 report["attach"] = sorted(bpy.ops.glossy.attach_materials())
