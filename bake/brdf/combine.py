@@ -1,7 +1,9 @@
 """Sums of models and Fresnel-weighted layers (a clear coat over a base).
 
-Specs: ``sum(A; B; ...)`` and ``layer(ior=1.5; TOP; BASE)`` where A, B, TOP
-and BASE are any specs (nesting allowed).
+Specs: ``sum(A; B; ...)``, ``layer(ior=1.5; TOP; BASE)``, ``scale(k=0.5; A)``
+(``k`` one number or r/g/b: a Mix Shader's factor) and
+``fresnel_mix(ior=1.5; A; B)`` (a Mix Shader driven by Blender's Fresnel node)
+where A, B, TOP and BASE are any specs (nesting allowed).
 """
 
 import numpy as np
@@ -11,7 +13,7 @@ from .base import BRDF
 from .params import SpecError
 from .vectors import broadcast_wo_u, dot, half_vector
 
-__all__ = ["Sum", "Layer"]
+__all__ = ["Sum", "Layer", "Scale", "FresnelMix"]
 
 
 class _Composite(BRDF):
@@ -95,3 +97,62 @@ class Layer(_Composite):
         through = ((1.0 - fresnel.dielectric(wi[..., 2], self.ior))
                    * (1.0 - fresnel.dielectric(wo[..., 2], self.ior)))[..., None]
         return f_top * top.f(wi, wo) + through * base.f(wi, wo)
+
+
+class Scale(_Composite):
+    """f = k f_A, k one number or RGB (a Mix or Add Shader's constant weight)."""
+
+    name = "scale"
+
+    def __init__(self, k, part):
+        k = np.broadcast_to(np.asarray(k, dtype=np.float64), (3,)).copy()
+        if not np.all(np.isfinite(k)) or np.any(k < 0.0) or np.any(k > 1e3):
+            raise SpecError(f"scale: k={k.tolist()} must be finite and in [0, 1000]")
+        self.k = k
+        self.parts = [part]
+        self.params = {"k": tuple(float(v) for v in k)}
+        self.reciprocal = part.reciprocal
+        self.isotropic = part.isotropic
+        self._weights = np.ones(1)
+
+    @property
+    def spec(self):
+        from .params import format_value
+
+        return f"scale(k={format_value(self.params['k'])}; {self.parts[0].spec})"
+
+    def _f(self, wi, wo):
+        return self.k * self.parts[0].f(wi, wo)
+
+
+class FresnelMix(_Composite):
+    """f = (1 - F(n.wo)) f_A + F(n.wo) f_B, F the exact dielectric Fresnel of ``ior``
+    at the view's cosine: a Mix Shader whose factor is Blender's Fresnel node (A the
+    first shader socket, B the second). Not reciprocal (the weight follows the view)."""
+
+    name = "fresnel_mix"
+
+    def __init__(self, ior, first, second):
+        if not 1.0 < ior <= 10.0:
+            raise SpecError(f"fresnel_mix: ior={ior:g} is out of range (1, 10]")
+        self.ior = float(ior)
+        self.parts = [first, second]
+        self.params = {"ior": self.ior}
+        self.reciprocal = False
+        self.isotropic = first.isotropic and second.isotropic
+        self._weights = self._mixture_weights()
+
+    @property
+    def spec(self):
+        from .params import format_value
+
+        return (f"fresnel_mix(ior={format_value(self.ior)}; {self.parts[0].spec}; "
+                f"{self.parts[1].spec})")
+
+    def weight(self, mu):
+        """F(mu), the second part's weight at view cosines ``mu`` (...)."""
+        return fresnel.dielectric(mu, self.ior)
+
+    def _f(self, wi, wo):
+        f = self.weight(wo[..., 2])[..., None]
+        return (1.0 - f) * self.parts[0].f(wi, wo) + f * self.parts[1].f(wi, wo)

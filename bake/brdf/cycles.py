@@ -282,29 +282,27 @@ class PrincipledMetallic(GGX):
 
 @register
 class MultiscatterGGX(GGX):
-    """Cycles' Multiscatter GGX (the Glossy node's default) for a white Color.
+    """Cycles' Multiscatter GGX (the Glossy node's default).
 
-    f = f_GGX / E(cv), E(mu) the single-scattering directional albedo of
-    isotropic GGX with alpha = sqrt(ax ay), integrated numerically (64 nodes in
-    mu, linear interpolation). It depends on the view cosine only, so it is not
-    reciprocal. For a tinted Color Cycles adds a colour-dependent Fms term;
-    here the tint multiplies the white result (exact for white only).
+    f = f_GGX color (1 + Fms (1 - E(cv)) / E(cv)) with Fms = color E_avg / (1 - color
+    (1 - E_avg)) (Kulla & Conty, as Cycles' constant-Fresnel energy preservation):
+    for a white Color f_GGX / E(cv). E(mu) is the single-scatter directional albedo
+    of isotropic GGX with alpha = sqrt(ax ay) and E_avg = 2 int E mu dmu, integrated
+    numerically (bake.brdf.principled.ggx_albedo_tables). It depends on the view
+    cosine only, so it is not reciprocal.
     """
 
     name = "ggx_multiscatter"
     reciprocal = False
-    _tables: dict = {}
 
     def _setup(self):
         super()._setup()
-        alpha = float(np.sqrt(self.ax * self.ay))
-        if alpha not in self._tables:
-            mu = np.linspace(0.02, 1.0, 64)
-            wo = np.stack([np.sqrt(1 - mu**2), np.zeros_like(mu), mu], -1)
-            single = GGX(alpha=max(alpha, 1e-4))
-            self._tables[alpha] = (mu, single.albedo(wo, 16384)[:, 0])
-        self.e_mu, self.e_value = self._tables[alpha]
+        from .principled import ggx_albedo_tables
+
+        self.e_mu, self.e_value, _, self.e_avg = ggx_albedo_tables(
+            float(np.sqrt(self.ax * self.ay)), None)
 
     def _f_lobe(self, wi, wo):
-        e = np.interp(wo[..., 2], self.e_mu, self.e_value)
-        return super()._f_lobe(wi, wo) / e[..., None]
+        e = np.maximum(np.interp(wo[..., 2], self.e_mu, self.e_value), 1e-6)[..., None]
+        fms = self.color * self.e_avg / (1.0 - self.color * (1.0 - self.e_avg))
+        return super()._f_lobe(wi, wo) * (1.0 + fms * (1.0 - e) / e)

@@ -1,0 +1,329 @@
+"""Cycles' Principled BSDF (Blender 4.x/5.0) as one reflectance model: coat, metal,
+dielectric specular and diffuse, layered as Cycles layers them.
+
+Source: Cycles v5.0 ``kernel/svm/closure.h`` (the Principled case),
+``kernel/closure/bsdf_microfacet.h`` (Fresnel models, energy preservation and
+the albedo estimate that weights the lower layers). Every quantity is in the
+local shading frame (z = normal, x = the anisotropy tangent before
+``rotation``); ``wo`` is the view (Cycles' ``sd->wi``), mu = wo_z, and every
+GGX lobe is Cycles' single-scatter GGX with height-correlated Smith G2.
+
+The layers, from the top (W is the weight left for the layers below, 1 at
+first; ``saturate`` clamps to [0, 1]; max_c is the largest RGB channel):
+
+1. Coat (``coat_weight`` > 0): isotropic GGX, alpha_c = coat_roughness^2,
+   exact dielectric Fresnel F(h.wo, coat_ior), always energy-preserving:
+   f_coat = coat_weight f_GGX F (1 + Fms (1 - E) / E). Below it
+   W = saturate(1 - coat_weight (E + Fms (1 - E)) mix(F0, 1, s(mu))) times
+   mix(1, coat_tint^(1 / cos theta_t), coat_weight) with
+   cos theta_t = sqrt(1 - (1 - mu^2) / coat_ior^2).
+2. Metal (weight metallic W): GGX (alpha = roughness^2 and the Principled
+   anisotropy, aspect = sqrt(1 - 0.9 A), ax = alpha / aspect, ay = alpha aspect)
+   with the F82-tint Fresnel of PrincipledMetallic (F0 = base_color,
+   F82 tint = specular_tint); then W *= 1 - metallic.
+3. Specular (weight W): the same GGX with the generalized-Schlick Fresnel of
+   an IOR adjusted by ``specular_ior_level`` (F0 = F0(ior) 2 level, eta from that
+   F0): F = mix(F0 tint, 1, saturate((F_real(h.wo, eta) - F0(eta)) / (1 - F0(eta)))).
+   Below it W *= saturate(1 - max_c(k mix(F0 tint, 1, s(mu)))), k = E + Fms (1 - E)
+   with Multiscatter GGX, 1 with GGX.
+4. Diffuse: W base_color / pi (Lambert; Diffuse Roughness 0).
+
+Multiscatter GGX (``multiscatter=1``, the node's default) multiplies a lobe by
+1 + Fms (1 - E(mu)) / E(mu) with Fms = Fss E_avg / (1 - Fss (1 - E_avg)), Fss the
+hemispherical average of the lobe's Fresnel (dielectric: 2 int F(mu) mu dmu;
+F82: mix(F0, 1, 1/21) - B / 126); the coat always does.
+
+E(mu) is the single-scatter albedo of isotropic GGX with alpha = sqrt(ax ay)
+and s(mu) = E_F(mu) / E(mu) the lobe's average of the Fresnel blend factor,
+both integrated here by sampling visible normals (4096 points per node, 64
+nodes in mu, linear interpolation). Cycles reads them from its own 32 x 32 and
+16^3 tables: the two differ by about 1e-3 (the Cycles tests in
+tests/blender/test_principled_reader.py measure it). The weights below the
+top layer depend on the view only, so the model is not reciprocal.
+
+Ignored here (glossy_addon.node_reader lists them): transmission, subsurface,
+sheen, thin film, emission, alpha, a diffuse roughness above 0 (Cycles'
+Oren-Nayar) and a coat normal other than the normal.
+"""
+
+import numpy as np
+
+from . import fresnel
+from .base import BRDF, register
+from .microfacet import ggx_d, ggx_lambda, reflect_about, sample_ggx_vndf
+from .params import Param
+from .vectors import broadcast_wo_u, cosine_hemisphere, dot, half_vector, rotate_z
+
+__all__ = ["Principled", "ggx_albedo_tables", "dielectric_hemispherical_average"]
+
+_MIN_ALPHA = 1e-7
+_MU = np.linspace(0.0, 1.0, 65)[1:]  # 64 nodes, mu = 1/64 ... 1
+_TABLES: dict = {}
+
+
+def dielectric_hemispherical_average(eta: float) -> float:
+    """Fss = 2 int_0^1 F_dielectric(mu, eta) mu dmu (64-node Gauss-Legendre)."""
+    x, w = np.polynomial.legendre.leggauss(64)
+    mu = 0.5 * (x + 1.0)
+    return float(np.sum(w * 0.5 * 2.0 * fresnel.dielectric(mu, eta) * mu))
+
+
+def _blend_factor(cos_hv, eta):
+    """saturate((F_real - F0) / (1 - F0)): the generalized-Schlick blend of Cycles'
+    exponent < 0 case (the real dielectric curve rescaled to F0 ... 1)."""
+    f0 = float(fresnel.f0_from_ior(eta))
+    return np.clip((fresnel.dielectric(cos_hv, eta) - f0) / max(1.0 - f0, 1e-12), 0.0, 1.0)
+
+
+def ggx_albedo_tables(alpha: float, eta: float | None):
+    """(mu (64,), E (64,), s (64,), E_avg) for isotropic GGX of ``alpha``.
+
+    E(mu): single-scatter directional albedo (F = 1); s(mu): E_F / E with F the
+    blend factor of ``eta`` (None: s = 1); E_avg = 2 int E mu dmu. Integrated
+    by sampling visible normals (estimator G2 / G1, 4096 Hammersley points per
+    node); cached per (alpha, eta).
+    """
+    key = (round(float(alpha), 9), None if eta is None else round(float(eta), 9))
+    if key in _TABLES:
+        return _TABLES[key]
+    from .base import hammersley
+
+    alpha = max(float(alpha), 1e-4)
+    u = hammersley(4096)
+    wo = np.stack([np.sqrt(1.0 - _MU**2), np.zeros_like(_MU), _MU], -1)[:, None, :]
+    m = sample_ggx_vndf(np.broadcast_to(wo, (len(_MU), len(u), 3)), u[None], alpha, alpha)
+    wi = reflect_about(np.broadcast_to(wo, m.shape), m)
+    with np.errstate(all="ignore"):
+        lam_o = ggx_lambda(wo, alpha, alpha)
+        lam_i = ggx_lambda(wi, alpha, alpha)
+        weight = np.where(wi[..., 2] > 0, (1.0 + lam_o) / (1.0 + lam_o + lam_i), 0.0)
+    e = weight.mean(axis=1)
+    if eta is None:
+        s = np.ones_like(e)
+    else:
+        blend = _blend_factor(np.sum(wo * m, axis=-1), eta)
+        s = (weight * blend).mean(axis=1) / np.maximum(e, 1e-12)
+    nodes = np.concatenate([[0.0], _MU])
+    e_full = np.concatenate([[e[0]], e])
+    values = 2.0 * e_full * nodes
+    e_avg = float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(nodes)))
+    _TABLES[key] = (_MU, e, s, e_avg)
+    return _TABLES[key]
+
+
+def _ior_from_f0(f0):
+    root = np.sqrt(np.clip(f0, 0.0, 0.99))
+    return (1.0 + root) / (1.0 - root)
+
+
+@register
+class Principled(BRDF):
+    """Cycles' Principled BSDF: coat, metal, dielectric specular and diffuse (no transmission)."""
+
+    name = "principled"
+    reciprocal = False
+    PARAMS = (
+        Param("base_color", 0.8, 0.0, 1.0, "Base Color", rgb=True),
+        Param("metallic", 0.0, 0.0, 1.0, "Metallic"),
+        Param("roughness", 0.5, 0.01, 1.0, "Roughness; alpha = roughness^2 (below 0.01 "
+              "Cycles renders a mirror)"),
+        Param("ior", 1.5, 1.0, 10.0, "IOR of the dielectric specular layer"),
+        Param("specular_ior_level", 0.5, 0.0, 1.0, "Specular IOR Level (0.5: the IOR as is)"),
+        Param("specular_tint", 1.0, 0.0, 1.0, "Specular Tint", rgb=True),
+        Param("anisotropy", 0.0, 0.0, 1.0, "Anisotropic"),
+        Param("rotation", 0.0, 0.0, 1.0, "Anisotropic Rotation, in turns"),
+        Param("coat_weight", 0.0, 0.0, 1.0, "Coat Weight"),
+        Param("coat_roughness", 0.03, 0.01, 1.0, "Coat Roughness"),
+        Param("coat_ior", 1.5, 1.0, 10.0, "Coat IOR"),
+        Param("coat_tint", 1.0, 0.0, 1.0, "Coat Tint", rgb=True),
+        Param("multiscatter", 1.0, 0.0, 1.0, "1: Multiscatter GGX (the node's default), "
+              "0: GGX"),
+        Param("diffuse", 1.0, 0.0, 1.0, "1: with the diffuse layer, 0: the glossy layers "
+              "alone (what a map bakes; the diffuse goes to the irradiance map)"),
+    )
+
+    @classmethod
+    def _derive(cls, params, given):
+        for flag in ("multiscatter", "diffuse"):
+            if params[flag] not in (0.0, 1.0):
+                from .params import SpecError
+
+                raise SpecError(f"principled: {flag} is 0 or 1, not {params[flag]:g}")
+        return params
+
+    def _setup(self):
+        p = self.params
+        alpha = p["roughness"] ** 2
+        aspect = np.sqrt(1.0 - 0.9 * p["anisotropy"])
+        self.ax = float(np.clip(alpha / aspect, _MIN_ALPHA, 1.0))
+        self.ay = float(np.clip(alpha * aspect, _MIN_ALPHA, 1.0))
+        self.isotropic = p["anisotropy"] == 0.0 or p["metallic"] == 0.0 and \
+            self._specular_eta() == 1.0
+        self.angle = 2.0 * np.pi * p["rotation"]
+        self.base = np.asarray(p["base_color"], dtype=np.float64)
+        self.metallic = float(p["metallic"])
+        self.multiscatter = p["multiscatter"] == 1.0
+        # Metal: F82 tint.
+        tint = np.asarray(p["specular_tint"], dtype=np.float64)
+        mu82 = 6.0 / 7.0
+        self.b82 = (self.base + (1.0 - self.base) * mu82**5) * 7.0 / mu82**6 * (1.0 - tint)
+        # Dielectric specular: the adjusted IOR.
+        self.eta = self._specular_eta()
+        f0 = float(fresnel.f0_from_ior(p["ior"]))
+        if p["specular_ior_level"] != 0.5:
+            f0 *= 2.0 * p["specular_ior_level"]
+        self.spec_f0 = np.clip(f0 * tint, 0.0, 1.0)
+        rough = np.sqrt(np.sqrt(self.ax * self.ay))
+        self._main = ggx_albedo_tables(rough**2, self.eta if self.eta != 1.0 else None)
+        self.coat = float(p["coat_weight"])
+        self.coat_alpha = max(p["coat_roughness"] ** 2, _MIN_ALPHA)
+        self.coat_ior = float(p["coat_ior"])
+        self.coat_tint = np.asarray(p["coat_tint"], dtype=np.float64)
+        if self.coat > 0.0:
+            self._coat = ggx_albedo_tables(self.coat_alpha,
+                                           self.coat_ior if self.coat_ior > 1.0 else None)
+
+    def _specular_eta(self) -> float:
+        p = self.params
+        if p["specular_ior_level"] == 0.5:
+            return float(p["ior"])
+        f0 = float(fresnel.f0_from_ior(p["ior"])) * 2.0 * p["specular_ior_level"]
+        return float(_ior_from_f0(f0)) if f0 > 0.0 else 1.0
+
+    # --- pieces --------------------------------------------------------------------------
+    @staticmethod
+    def _table(table, mu):
+        nodes, e, s, _ = table
+        return np.interp(mu, nodes, e), np.interp(mu, nodes, s)
+
+    @staticmethod
+    def _fms(fss, e_avg):
+        fss = np.asarray(fss, dtype=np.float64)
+        return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
+
+    def _ggx(self, wi, wo, ax, ay):
+        """Single-scatter GGX f = D G2 / (4 cos_i cos_o), (...)."""
+        h = half_vector(wi, wo)
+        g2 = 1.0 / (1.0 + ggx_lambda(wi, ax, ay) + ggx_lambda(wo, ax, ay))
+        return ggx_d(h, ax, ay) * g2 / (4.0 * wi[..., 2] * wo[..., 2]), dot(h, wo)
+
+    def _metal_fss(self):
+        return self.base + (1.0 - self.base) / 21.0 - self.b82 / 126.0
+
+    def _spec_fss(self):
+        fss_real = dielectric_hemispherical_average(self.eta)
+        f0 = float(fresnel.f0_from_ior(self.eta))
+        s = np.clip((fss_real - f0) / max(1.0 - f0, 1e-12), 0.0, 1.0)
+        return self.spec_f0 + (1.0 - self.spec_f0) * s
+
+    def _energy(self, mu, table, fss, always=False):
+        """(multiplier of the single-scatter lobe, E + Fms (1 - E) or 1), (..., 3)."""
+        e, _ = self._table(table, mu)
+        e = np.maximum(e, 1e-6)[..., None]
+        if not (self.multiscatter or always):
+            one = np.ones(e.shape[:-1] + (3,))
+            return one, one
+        fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
+        return 1.0 + fms * (1.0 - e) / e, e + fms * (1.0 - e)
+
+    def lower_weights(self, mu):
+        """(weight under the coat (..., 3), weight of the diffuse layer (..., 3)) at
+        view cosines ``mu`` (...): the W of the module docstring before the metal
+        and at the diffuse layer."""
+        mu = np.clip(np.asarray(mu, dtype=np.float64), 0.0, 1.0)
+        weight = np.ones(mu.shape + (3,))
+        if self.coat > 0.0:
+            _, s = self._table(self._coat, mu)
+            fss = dielectric_hemispherical_average(self.coat_ior)
+            _, darkening = self._energy(mu, self._coat, fss, always=True)
+            f0 = float(fresnel.f0_from_ior(self.coat_ior))
+            albedo = self.coat * darkening * (f0 + (1.0 - f0) * s)[..., None]
+            weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
+            if not np.all(self.coat_tint == 1.0):
+                cos_t = np.sqrt(1.0 - (1.0 - mu**2) / self.coat_ior**2)[..., None]
+                tinted = np.power(self.coat_tint, 1.0 / cos_t)
+                weight = weight * (1.0 + self.coat * (tinted - 1.0))
+        under_coat = weight
+        weight = weight * (1.0 - self.metallic)
+        if self.eta != 1.0:
+            _, s = self._table(self._main, mu)
+            _, darkening = self._energy(mu, self._main, self._spec_fss())
+            albedo = darkening * (self.spec_f0 + (1.0 - self.spec_f0) * s[..., None])
+            weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
+        return under_coat, weight
+
+    def diffuse_colour(self):
+        """The diffuse layer's colour before its view-dependent weight: base_color (3,)."""
+        return self.base.copy()
+
+    def _f(self, wi, wo):
+        mu = np.clip(wo[..., 2], 0.0, 1.0)
+        under_coat, diffuse_weight = self.lower_weights(mu)
+        total = np.zeros(np.broadcast_shapes(wi.shape, wo.shape)[:-1] + (3,))
+        if self.coat > 0.0:
+            lobe, cos_hv = self._ggx(wi, wo, self.coat_alpha, self.coat_alpha)
+            fss = dielectric_hemispherical_average(self.coat_ior)
+            energy, _ = self._energy(mu, self._coat, fss, always=True)
+            total = total + self.coat * (lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
+                ..., None] * energy
+        lw, lo = rotate_z(wi, -self.angle), rotate_z(wo, -self.angle)
+        lobe, cos_hv = self._ggx(lw, lo, self.ax, self.ay)
+        c = np.clip(cos_hv, 0.0, 1.0)[..., None]
+        if self.metallic > 0.0:
+            f82 = np.clip(fresnel.schlick(c[..., 0], self.base) - self.b82 * c * (1.0 - c) ** 6,
+                          0.0, 1.0)
+            energy, _ = self._energy(mu, self._main, self._metal_fss())
+            total = total + under_coat * self.metallic * lobe[..., None] * f82 * energy
+        if self.eta != 1.0:
+            blend = _blend_factor(c[..., 0], self.eta)[..., None]
+            f_spec = self.spec_f0 + (1.0 - self.spec_f0) * blend
+            energy, _ = self._energy(mu, self._main, self._spec_fss())
+            total = total + under_coat * (1.0 - self.metallic) * lobe[..., None] * f_spec * \
+                energy
+        if self.params["diffuse"] == 1.0:
+            total = total + diffuse_weight * self.base / np.pi
+        return total
+
+    # --- sampling: main lobe, coat lobe and cosine, mixed ----------------------------------
+    def _mixture(self):
+        weights = [1.0, 0.5 * self.coat, 0.5 if self.params["diffuse"] == 1.0 else 0.0]
+        total = sum(weights)
+        return [w / total for w in weights]
+
+    def sample(self, wo, u):
+        wo, u = broadcast_wo_u(wo, u)
+        w_main, w_coat, _ = self._mixture()
+        choice = np.where(u[..., 0] < w_main, 0, np.where(u[..., 0] < w_main + w_coat, 1, 2))
+        low = np.select([choice == 0, choice == 1], [0.0, w_main], w_main + w_coat)
+        width = np.select([choice == 0, choice == 1], [w_main, w_coat],
+                          max(1.0 - w_main - w_coat, 1e-12))
+        uu = np.stack([np.clip((u[..., 0] - low) / np.maximum(width, 1e-12), 0.0, 1.0 - 1e-12),
+                       u[..., 1]], -1)
+        with np.errstate(all="ignore"):
+            local = rotate_z(wo, -self.angle)
+            main = rotate_z(reflect_about(local, sample_ggx_vndf(local, uu, self.ax, self.ay)),
+                            self.angle)
+            coat = reflect_about(wo, sample_ggx_vndf(wo, uu, self.coat_alpha, self.coat_alpha))
+            diffuse, _ = cosine_hemisphere(uu)
+        wi = np.where((choice == 0)[..., None], main, np.where((choice == 1)[..., None], coat,
+                                                                diffuse))
+        return wi, self.pdf(wi, wo)
+
+    def pdf(self, wi, wo):
+        wi = np.asarray(wi, dtype=np.float64)
+        wo = np.asarray(wo, dtype=np.float64)
+        w_main, w_coat, w_diffuse = self._mixture()
+
+        def vndf(wi, wo, ax, ay):
+            h = half_vector(wi, wo)
+            g1 = 1.0 / (1.0 + ggx_lambda(wo, ax, ay))
+            value = g1 * ggx_d(h, ax, ay) / (4.0 * wo[..., 2])
+            return np.where((dot(wo, h) > 0) & (wo[..., 2] > 0), value, 0.0)
+
+        with np.errstate(all="ignore"):
+            total = w_main * vndf(rotate_z(wi, -self.angle), rotate_z(wo, -self.angle),
+                                  self.ax, self.ay)
+            if w_coat:
+                total = total + w_coat * vndf(wi, wo, self.coat_alpha, self.coat_alpha)
+            total = total + w_diffuse * np.where(wi[..., 2] > 0, wi[..., 2] / np.pi, 0.0)
+        return np.nan_to_num(total)

@@ -1,0 +1,318 @@
+"""The BRDF of a material's own node tree, as a bake.brdf spec.
+
+From the Material Output's Surface back through reroutes: Principled BSDF,
+Glossy BSDF (all four distributions), Diffuse BSDF, Mix Shader (a constant
+factor, or Blender's Fresnel node) and Add Shader of these. The spec is exact
+where Cycles' formulas allow it (bake.brdf.principled, bake.brdf.cycles);
+everything else is listed, never dropped silently:
+
+- ``ignored``: what the spec leaves out (transmission, subsurface, sheen,
+  emission, alpha, thin film, Oren-Nayar diffuse roughness, normal maps and
+  other links into Normal / Coat Normal / Tangent, transparent or emission
+  shaders inside a mix);
+- ``approximated``: inputs driven by links, taken at one value (an Image
+  Texture at its mean, an RGB or Value node at its value, anything else at the
+  socket's own unlinked value);
+- a tree Glossy cannot read at all (no surface, pure emission, volume only, a
+  node group, an unknown shader) raises NodeReadError with the reason.
+
+The reader only reads: it never changes the material.
+"""
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..bake.errors import BakeError
+
+#: Glossy BSDF distributions and the bake.brdf model of each (CYCLES.md).
+GLOSSY_MODELS = {"GGX": "ggx", "BECKMANN": "beckmann", "ASHIKHMIN_SHIRLEY": "ashikhmin_shirley",
+                 "MULTI_GGX": "ggx_multiscatter"}
+#: Rec. 709 luminance: how Blender converts a colour link into a float socket.
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+#: Below this roughness Cycles renders a perfect mirror (CYCLES.md).
+MIN_ROUGHNESS = 0.01
+
+
+class NodeReadError(BakeError):
+    """The material's node tree holds no BSDF Glossy can read."""
+
+
+@dataclass
+class Derived:
+    """What the reader found: ``spec`` (bake.brdf), and the lists of the module docstring.
+
+    ``inputs``: {input label: value} of every BRDF-relevant input (the staleness
+    hash); ``images``: identities of the images read (name, file, size).
+    """
+
+    spec: str
+    ignored: list = field(default_factory=list)
+    approximated: list = field(default_factory=list)
+    inputs: dict = field(default_factory=dict)
+    images: list = field(default_factory=list)
+
+    def digest(self) -> str:
+        """Hash of the derived spec and the images' identities (16 hex digits)."""
+        text = json.dumps({"spec": self.spec, "images": self.images}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def inputs_json(self) -> str:
+        return json.dumps(self.inputs, sort_keys=True)
+
+
+def _fmt(value) -> str:
+    values = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if np.allclose(values, values[0]):
+        return f"{values[0]:.6g}"
+    return "/".join(f"{v:.6g}" for v in values)
+
+
+def _srgb_to_linear(c):
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+class _Reader:
+    def __init__(self, material):
+        self.material = material
+        self.derived = Derived(spec="")
+
+    # --- sockets ---------------------------------------------------------------------------
+    @staticmethod
+    def _source(socket):
+        """(node, output socket) feeding ``socket`` through reroutes, or (None, None)."""
+        while socket.is_linked:
+            link = socket.links[0]
+            if not link.is_valid or link.is_muted:
+                return None, None
+            node = link.from_node
+            if node.bl_idname == "NodeReroute":
+                socket = node.inputs[0]
+                continue
+            return node, link.from_socket
+        return None, None
+
+    def _image_mean(self, node, output, colour):
+        image = node.image
+        pixels = np.empty(len(image.pixels), dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        channels = max(int(image.channels), 1)
+        pixels = pixels.reshape(-1, channels).astype(np.float64)
+        rgb = pixels[:, :3] if channels >= 3 else np.repeat(pixels[:, :1], 3, axis=1)
+        space = image.colorspace_settings.name
+        if not image.is_float and space in ("sRGB", "sRGB EOTF"):
+            rgb = _srgb_to_linear(rgb)
+        if output.name == "Alpha" and channels == 4:
+            mean = np.full(3, pixels[:, 3].mean())
+        else:
+            mean = rgb.mean(axis=0)
+        self.derived.images.append([image.name, image.filepath, list(image.size)])
+        return mean if colour else float(np.dot(mean, LUMINANCE))
+
+    def value(self, node, name, label=None):
+        """The value of input ``name`` of ``node`` (float or (3,) array), noting links."""
+        socket = node.inputs[name]
+        colour = socket.type == "RGBA"
+        label = f"{node.name}: {label or name}"
+        source, output = self._source(socket)
+        own = socket.default_value
+        own = np.asarray(own[:3], dtype=np.float64) if colour else float(own)
+        if source is None:
+            value = own
+        elif source.bl_idname in ("ShaderNodeRGB", "ShaderNodeValue"):
+            raw = output.default_value
+            if colour:
+                value = np.asarray(raw[:3] if hasattr(raw, "__len__") else [raw] * 3, float)
+            else:
+                value = float(np.dot(raw[:3], LUMINANCE)) if hasattr(raw, "__len__") \
+                    else float(raw)
+        elif source.bl_idname == "ShaderNodeTexImage" and source.image is not None \
+                and len(source.image.pixels):
+            value = self._image_mean(source, output, colour)
+            self.derived.approximated.append(
+                f"{label}: image '{source.image.name}' taken at its mean ({_fmt(value)}); "
+                f"the texture stays in the material but is not applied per pixel")
+        else:
+            value = own
+            self.derived.approximated.append(
+                f"{label}: driven by '{source.name}' ({source.bl_idname}); its unlinked value "
+                f"{_fmt(own)} is used")
+        self.derived.inputs[label] = np.round(np.atleast_1d(value), 6).tolist()
+        return value
+
+    def linked(self, node, name):
+        socket = node.inputs.get(name)
+        return socket is not None and self._source(socket)[0] is not None
+
+    # --- shaders ---------------------------------------------------------------------------
+    def shader(self, socket, path):
+        source, _ = self._source(socket)
+        if source is None:
+            raise NodeReadError(f"{self.material.name}: {path} has no shader connected")
+        kind = source.bl_idname
+        if kind == "ShaderNodeBsdfPrincipled":
+            return self.principled(source)
+        if kind in ("ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfGlossy"):
+            return self.glossy(source)
+        if kind == "ShaderNodeBsdfDiffuse":
+            return self.diffuse(source)
+        if kind == "ShaderNodeAddShader":
+            parts = [self.shader(s, f"{path} > {source.name}") for s in source.inputs]
+            parts = [p for p in parts if p]
+            return None if not parts else parts[0] if len(parts) == 1 else \
+                f"sum({'; '.join(parts)})"
+        if kind == "ShaderNodeMixShader":
+            return self.mix(source, path)
+        if kind == "ShaderNodeGroup":
+            raise NodeReadError(f"{self.material.name}: the surface goes through the node "
+                                f"group '{source.name}', which Glossy cannot see into: "
+                                "ungroup it (Ctrl+Alt+G) or choose another BRDF source")
+        if kind in ("ShaderNodeEmission", "ShaderNodeBsdfTransparent", "ShaderNodeHoldout"):
+            self.derived.ignored.append(f"{source.name}: {source.bl_label} (no reflection)")
+            return None
+        raise NodeReadError(f"{self.material.name}: Glossy cannot read the {source.bl_label} "
+                            f"node '{source.name}' (it reads Principled, Glossy and Diffuse "
+                            "BSDFs, Mix and Add Shaders)")
+
+    def mix(self, node, path):
+        first = self.shader(node.inputs[1], f"{path} > {node.name}")
+        second = self.shader(node.inputs[2], f"{path} > {node.name}")
+        fac_source, _ = self._source(node.inputs["Fac"])
+        black = "lambert:color=0"
+        if fac_source is not None and fac_source.bl_idname == "ShaderNodeFresnel" \
+                and not self.linked(fac_source, "IOR") and not self.linked(fac_source, "Normal"):
+            ior = float(fac_source.inputs["IOR"].default_value)
+            self.derived.inputs[f"{node.name}: Fresnel IOR"] = [round(ior, 6)]
+            if ior > 1.0:
+                return f"fresnel_mix(ior={ior:.6g}; {first or black}; {second or black})"
+            fac = 0.0 if ior == 1.0 else 1.0
+        else:
+            fac = float(np.clip(self.value(node, "Fac"), 0.0, 1.0))
+        parts = []
+        if first and fac < 1.0:
+            parts.append(first if fac == 0.0 else f"scale(k={1.0 - fac:.6g}; {first})")
+        if second and fac > 0.0:
+            parts.append(second if fac == 1.0 else f"scale(k={fac:.6g}; {second})")
+        return None if not parts else parts[0] if len(parts) == 1 else \
+            f"sum({'; '.join(parts)})"
+
+    def _roughness(self, node, name="Roughness"):
+        roughness = float(np.clip(self.value(node, name), 0.0, 1.0))
+        if roughness < MIN_ROUGHNESS:
+            self.derived.approximated.append(
+                f"{node.name}: {name} {roughness:.3g} is below {MIN_ROUGHNESS} (Cycles renders "
+                f"a perfect mirror); Glossy uses {MIN_ROUGHNESS}")
+            roughness = MIN_ROUGHNESS
+        return roughness
+
+    def _note_normal(self, node, names=("Normal",)):
+        for name in names:
+            if self.linked(node, name):
+                self.derived.ignored.append(f"{node.name}: the link into {name} (normal or bump "
+                                            "maps are not applied)")
+
+    def glossy(self, node):
+        roughness = self._roughness(node)
+        anisotropy = float(np.clip(self.value(node, "Anisotropy"), -1.0, 1.0)) \
+            if "Anisotropy" in node.inputs else 0.0
+        rotation = float(self.value(node, "Rotation")) % 1.0 if "Rotation" in node.inputs \
+            else 0.0
+        colour = np.clip(self.value(node, "Color"), 0.0, 1.0)
+        self._note_normal(node, ("Normal", "Tangent"))
+        model = GLOSSY_MODELS[node.distribution]
+        return (f"{model}:roughness={roughness:.6g},anisotropy={anisotropy:.6g},"
+                f"rotation={rotation:.6g},color={_fmt(colour)}")
+
+    def diffuse(self, node):
+        colour = np.clip(self.value(node, "Color"), 0.0, 1.0)
+        if float(self.value(node, "Roughness")) > 0.0:
+            self.derived.approximated.append(f"{node.name}: Roughness > 0 (Oren-Nayar) is "
+                                             "taken as Lambert")
+        self._note_normal(node)
+        return f"lambert:color={_fmt(colour)}"
+
+    def principled(self, node):
+        d = self.derived
+        for name, unit in (("Transmission Weight", "transmission"),
+                           ("Subsurface Weight", "subsurface"), ("Sheen Weight", "sheen"),
+                           ("Thin Film Thickness", "thin film")):
+            if name in node.inputs and (self.linked(node, name)
+                                        or float(node.inputs[name].default_value) > 0.0):
+                d.ignored.append(f"{node.name}: {unit} ({name})")
+        if "Emission Strength" in node.inputs and (
+                self.linked(node, "Emission Color") or self.linked(node, "Emission Strength")
+                or float(node.inputs["Emission Strength"].default_value) > 0.0
+                and any(node.inputs["Emission Color"].default_value[:3])):
+            d.ignored.append(f"{node.name}: emission")
+        if self.linked(node, "Alpha") or float(node.inputs["Alpha"].default_value) < 1.0:
+            d.ignored.append(f"{node.name}: alpha (transparency)")
+        if "Diffuse Roughness" in node.inputs and (
+                self.linked(node, "Diffuse Roughness")
+                or float(node.inputs["Diffuse Roughness"].default_value) > 0.0):
+            d.approximated.append(f"{node.name}: Diffuse Roughness > 0 (Oren-Nayar) is taken "
+                                  "as Lambert")
+        self._note_normal(node, ("Normal", "Coat Normal", "Tangent"))
+        base = np.clip(self.value(node, "Base Color"), 0.0, 1.0)
+        values = {
+            "base_color": _fmt(base),
+            "metallic": _fmt(np.clip(self.value(node, "Metallic"), 0, 1)),
+            "roughness": _fmt(self._roughness(node)),
+            "ior": _fmt(np.clip(self.value(node, "IOR"), 1.0, 10.0)),
+            "specular_ior_level": _fmt(np.clip(self.value(node, "Specular IOR Level"), 0, 1)),
+            "specular_tint": _fmt(np.clip(self.value(node, "Specular Tint"), 0, 1)),
+            "anisotropy": _fmt(np.clip(self.value(node, "Anisotropic"), 0, 1)),
+            "rotation": _fmt(float(self.value(node, "Anisotropic Rotation")) % 1.0),
+            "coat_weight": _fmt(np.clip(self.value(node, "Coat Weight"), 0, 1)),
+        }
+        if float(values["coat_weight"]) > 0.0:
+            values["coat_roughness"] = _fmt(max(float(np.clip(
+                self.value(node, "Coat Roughness"), 0, 1)), MIN_ROUGHNESS))
+            values["coat_ior"] = _fmt(np.clip(self.value(node, "Coat IOR"), 1.0, 10.0))
+            values["coat_tint"] = _fmt(np.clip(self.value(node, "Coat Tint"), 0, 1))
+        if float(node.inputs["IOR"].default_value) < 1.0 and not self.linked(node, "IOR"):
+            d.approximated.append(f"{node.name}: IOR below 1 is taken as 1")
+        values["multiscatter"] = "1" if node.distribution == "MULTI_GGX" else "0"
+        return "principled:" + ",".join(f"{k}={v}" for k, v in values.items())
+
+
+def output_node(material):
+    """The Material Output Cycles renders (active, target All or Cycles), or None."""
+    if not material.use_nodes or material.node_tree is None:
+        return None
+    tree = material.node_tree
+    for target in ("CYCLES", "ALL"):
+        try:
+            node = tree.get_output_node(target)
+        except (TypeError, ValueError):
+            node = None
+        if node is not None:
+            return node
+    return None
+
+
+def read_material(material) -> Derived:
+    """The Derived BRDF of ``material``'s nodes; NodeReadError if there is none."""
+    from ..bake import brdf
+
+    output = output_node(material)
+    if output is None:
+        raise NodeReadError(f"{material.name}: no Material Output node (or nodes are off)")
+    reader = _Reader(material)
+    if output.inputs["Volume"].is_linked and not output.inputs["Surface"].is_linked:
+        raise NodeReadError(f"{material.name}: a volume-only material has no surface BRDF")
+    if output.inputs["Volume"].is_linked:
+        reader.derived.ignored.append(f"{output.name}: the volume shader")
+    if output.inputs["Displacement"].is_linked:
+        reader.derived.ignored.append(f"{output.name}: displacement")
+    spec = reader.shader(output.inputs["Surface"], output.name)
+    if not spec:
+        raise NodeReadError(f"{material.name}: the surface reflects nothing Glossy can bake "
+                            f"({'; '.join(reader.derived.ignored) or 'no BSDF'})")
+    try:
+        model = brdf.parse(spec)
+    except BakeError as error:
+        raise NodeReadError(f"{material.name}: {error}") from None
+    reader.derived.spec = model.spec
+    return reader.derived

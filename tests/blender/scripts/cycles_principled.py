@@ -1,0 +1,230 @@
+"""Render users' node-tree materials in Cycles under a sun lamp and in a white furnace,
+and derive each one's spec with glossy_addon.node_reader.
+
+    python cycles_principled.py WORKDIR RESULT.json
+
+Twelve materials as a user builds them (Principled rough metal, smooth metal
+with specular tint, plastics, coated metal and plastic, brushed anisotropic
+metal, a half-metal, a Value-driven roughness, Mix of Diffuse and Glossy by a
+constant and by a Fresnel node, Add of Diffuse and Glossy), each on two tilted
+planes (cycles_glossy.py's set-up: orthographic camera straight down, a delta
+sun of strength 1 with shadows off, Filter Glossy 0; furnace: white world, one
+bounce, two seeds). Writes per plane the material's derived spec, ignored and
+approximated lists, n, T, and the measured pixels.
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+workdir, result_path = Path(sys.argv[1]), sys.argv[2]
+repo = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(repo))
+
+import _checkout  # noqa: E402,F401  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+from glossy.glossy_addon.node_reader import read_material  # noqa: E402
+from glossy.glossy_addon.scenes import exact_cycles, float_exr_output  # noqa: E402
+from mathutils import Vector  # noqa: E402
+
+from bake import exr  # noqa: E402
+
+GRID, CELL = 5, 16
+SUNS = [np.array([0.5, 0.3, 0.8]), np.array([0.9, -0.2, 0.35])]
+
+
+def principled(nodes, distribution="GGX", **inputs):
+    node = nodes.new("ShaderNodeBsdfPrincipled")
+    node.distribution = distribution
+    for name, value in inputs.items():
+        socket = node.inputs[name.replace("_", " ")]
+        socket.default_value = (*value, 1.0) if isinstance(value, tuple) else value
+    return node
+
+
+def glossy(nodes, distribution, roughness, color=(1, 1, 1)):
+    node = nodes.new("ShaderNodeBsdfAnisotropic")
+    node.distribution = distribution
+    node.inputs["Roughness"].default_value = roughness
+    node.inputs["Color"].default_value = (*color, 1.0)
+    return node
+
+
+def diffuse(nodes, color):
+    node = nodes.new("ShaderNodeBsdfDiffuse")
+    node.inputs["Color"].default_value = (*color, 1.0)
+    node.inputs["Roughness"].default_value = 0.0
+    return node
+
+
+def build(kind, tree, tangent_vector):
+    """The surface node of material ``kind`` in ``tree`` (links made)."""
+    nodes, links = tree.nodes, tree.links
+    if kind == "rough_metal":
+        return principled(nodes, Metallic=1.0, Base_Color=(0.9, 0.6, 0.3), Roughness=0.5)
+    if kind == "tinted_metal":
+        return principled(nodes, "MULTI_GGX", Metallic=1.0, Base_Color=(0.95, 0.9, 0.8),
+                          Roughness=0.22, Specular_Tint=(0.5, 0.7, 0.9))
+    if kind == "plastic":
+        return principled(nodes, "MULTI_GGX", Base_Color=(0.2, 0.4, 0.8), Roughness=0.35)
+    if kind == "plastic_level":
+        return principled(nodes, Base_Color=(0.7, 0.2, 0.1), Roughness=0.3, IOR=1.45,
+                          Specular_IOR_Level=0.8, Specular_Tint=(1.0, 0.8, 0.6))
+    if kind == "coated_metal":
+        return principled(nodes, "MULTI_GGX", Metallic=1.0, Base_Color=(0.8, 0.3, 0.2),
+                          Roughness=0.45, Coat_Weight=0.8, Coat_Roughness=0.15, Coat_IOR=1.6,
+                          Coat_Tint=(0.9, 0.85, 0.7))
+    if kind == "coated_plastic":
+        return principled(nodes, Base_Color=(0.1, 0.5, 0.2), Roughness=0.5, Coat_Weight=1.0,
+                          Coat_Roughness=0.1)
+    if kind == "brushed":
+        node = principled(nodes, Metallic=1.0, Base_Color=(0.9, 0.9, 0.9), Roughness=0.4,
+                          Anisotropic=0.7, Anisotropic_Rotation=0.2)
+        tangent = nodes.new("ShaderNodeCombineXYZ")
+        for axis, value in zip("XYZ", tangent_vector, strict=True):
+            tangent.inputs[axis].default_value = value
+        links.new(tangent.outputs["Vector"], node.inputs["Tangent"])
+        return node
+    if kind == "half_metal":
+        return principled(nodes, "MULTI_GGX", Metallic=0.5, Base_Color=(0.6, 0.6, 0.3),
+                          Roughness=0.4)
+    if kind == "value_roughness":
+        node = principled(nodes, Base_Color=(0.5, 0.5, 0.5), Roughness=0.9)
+        value = nodes.new("ShaderNodeValue")
+        value.outputs[0].default_value = 0.3
+        links.new(value.outputs[0], node.inputs["Roughness"])
+        return node
+    if kind == "mix_constant":
+        mix = nodes.new("ShaderNodeMixShader")
+        mix.inputs["Fac"].default_value = 0.4
+        links.new(diffuse(nodes, (0.6, 0.3, 0.2)).outputs[0], mix.inputs[1])
+        links.new(glossy(nodes, "GGX", 0.3).outputs[0], mix.inputs[2])
+        return mix
+    if kind == "mix_fresnel":
+        mix = nodes.new("ShaderNodeMixShader")
+        fresnel = nodes.new("ShaderNodeFresnel")
+        fresnel.inputs["IOR"].default_value = 1.45
+        links.new(fresnel.outputs[0], mix.inputs["Fac"])
+        links.new(diffuse(nodes, (0.3, 0.5, 0.2)).outputs[0], mix.inputs[1])
+        links.new(glossy(nodes, "BECKMANN", 0.4).outputs[0], mix.inputs[2])
+        return mix
+    if kind == "add":
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(diffuse(nodes, (0.2, 0.2, 0.3)).outputs[0], add.inputs[0])
+        links.new(glossy(nodes, "MULTI_GGX", 0.3, (0.5, 0.5, 0.5)).outputs[0], add.inputs[1])
+        return add
+    raise ValueError(kind)
+
+
+KINDS = ["rough_metal", "tinted_metal", "plastic", "plastic_level", "coated_metal",
+         "coated_plastic", "brushed", "half_metal", "value_roughness", "mix_constant",
+         "mix_fresnel", "add"]
+
+rng = np.random.default_rng(31)
+configs = []
+for index in range(GRID * GRID):
+    kind = KINDS[index % len(KINDS)]
+    sun = SUNS[index % 2] / np.linalg.norm(SUNS[index % 2])
+    half = sun + np.array([0.0, 0.0, 1.0])
+    normal = half / np.linalg.norm(half) + rng.normal(scale=0.15, size=3)
+    normal /= np.linalg.norm(normal)
+    configs.append({"kind": kind, "normal": normal.tolist(),
+                    "tangent": rng.normal(size=3).tolist()})
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+exact_cycles(scene, 4)
+cycles = scene.cycles
+cycles.caustics_reflective = True
+float_exr_output(scene, GRID * CELL)
+
+world = bpy.data.worlds.new("world")
+world.use_nodes = True
+scene.world = world
+background = world.node_tree.nodes["Background"]
+
+camera_data = bpy.data.cameras.new("camera")
+camera_data.type = "ORTHO"
+camera_data.ortho_scale = float(GRID)
+camera = bpy.data.objects.new("camera", camera_data)
+camera.location = (0.0, 0.0, 10.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+
+for index, config in enumerate(configs):
+    row, col = divmod(index, GRID)
+    bpy.ops.mesh.primitive_plane_add(size=0.6, location=(col - GRID / 2 + 0.5,
+                                                         GRID / 2 - 0.5 - row, 0.0))
+    plane = bpy.context.object
+    plane.rotation_euler = Vector((0, 0, 1)).rotation_difference(
+        Vector(config["normal"])).to_euler()
+    plane.visible_shadow = False
+    plane.visible_glossy = False
+    plane.visible_diffuse = False  # the furnace: no plane hides the world from another
+    material = bpy.data.materials.new(f"{config['kind']}_{index}")
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    surface = build(config["kind"], tree, config["tangent"])
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(surface.outputs[0], output.inputs["Surface"])
+    plane.data.materials.append(material)
+    derived = read_material(material)
+    config.update({"spec": derived.spec, "ignored": derived.ignored,
+                   "approximated": derived.approximated})
+    bpy.context.view_layer.update()
+    config["normal_blender"] = list(plane.matrix_world.to_3x3() @ Vector((0, 0, 1)))
+
+
+def render(name):
+    scene.render.filepath = str(workdir / f"{name}.exr")
+    bpy.ops.render.render(write_still=True)
+    image, _ = exr.read(workdir / f"{name}.exr")
+    windows = []
+    for index in range(GRID * GRID):
+        row, col = divmod(index, GRID)
+        centre_r, centre_c = row * CELL + CELL // 2, col * CELL + CELL // 2
+        windows.append(image[centre_r - 3:centre_r + 3, centre_c - 3:centre_c + 3, :3])
+    return np.stack(windows)
+
+
+report = {"configs": configs, "suns": [], "furnace": {}}
+cycles.samples = 4
+cycles.max_bounces = 0
+background.inputs["Color"].default_value = (0, 0, 0, 1)
+sun_data = bpy.data.lights.new("sun", "SUN")
+sun_data.energy = 1.0
+sun_data.angle = 0.0
+sun = bpy.data.objects.new("sun", sun_data)
+scene.collection.objects.link(sun)
+for k, direction in enumerate(SUNS):
+    direction = direction / np.linalg.norm(direction)
+    sun.rotation_euler = Vector((0, 0, 1)).rotation_difference(Vector(direction)).to_euler()
+    windows = render(f"sun{k}")
+    spread = windows.max(axis=(1, 2)) - windows.min(axis=(1, 2))
+    report["suns"].append({"direction": direction.tolist(),
+                           "mean": windows.mean(axis=(1, 2)).tolist(), "spread": spread.tolist()})
+sun_data.energy = 0.0
+sun.hide_render = True
+
+cycles.samples = 512
+cycles.max_bounces = 1
+cycles.glossy_bounces = 1
+cycles.diffuse_bounces = 1
+background.inputs["Color"].default_value = (1, 1, 1, 1)
+seeds = []
+for seed in (1, 2):
+    cycles.seed = seed
+    seeds.append(render(f"furnace{seed}"))
+pixels = np.concatenate(seeds, axis=1)
+count = pixels.shape[1] * pixels.shape[2]
+report["furnace"] = {
+    "mean": pixels.mean(axis=(1, 2)).tolist(),
+    "stderr": (pixels.std(axis=(1, 2), ddof=1) / math.sqrt(count)).tolist(),
+    "seed_difference": np.abs(seeds[0].mean(axis=(1, 2)) - seeds[1].mean(axis=(1, 2))).tolist(),
+}
+with open(result_path, "w") as handle:
+    json.dump(report, handle, indent=1)
