@@ -145,10 +145,76 @@ def cmd_mip(args):
         print(f"wrote {path} ({layout} level {index}, {level.shape[0]}x{level.shape[1]})")
 
 
+_FROM_BLEND = """
+import json, os, sys, tempfile
+root, blend, name = sys.argv[1:4]
+folder = tempfile.mkdtemp(prefix="glossy_read_")
+os.symlink(root, os.path.join(folder, "glossy"))
+sys.path.insert(0, folder)
+try:
+    import bpy
+except ImportError:
+    print(json.dumps({"error": "reading a .blend needs the bpy module (pip install bpy==5.0.1)"}))
+    sys.exit(0)
+bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
+import glossy
+glossy.register()  # Material.glossy: the kept original of an attached material
+from glossy.glossy_addon.node_reader import NodeReadError, read_material
+material = bpy.data.materials.get(name)
+if material is None:
+    names = ", ".join(sorted(m.name for m in bpy.data.materials)) or "none"
+    print(json.dumps({"error": f"{blend} has no material {name!r} (it has: {names})"}))
+    sys.exit(0)
+if material.glossy.original is not None:  # Glossy's lookup replaced the nodes
+    material = material.glossy.original
+try:
+    found = read_material(material)
+except NodeReadError as error:
+    print(json.dumps({"error": str(error)}))
+    sys.exit(0)
+print(json.dumps({"spec": found.spec, "ignored": found.ignored,
+                  "approximated": found.approximated}))
+"""
+
+
+def spec_from_blend(blend, material) -> dict:
+    """{spec, ignored, approximated} of ``material`` in ``blend``, read by
+    glossy_addon.node_reader in a subprocess with the bpy module (bake never
+    imports bpy). Raises BakeError with the reason."""
+    import json
+    import subprocess
+
+    blend = Path(blend)
+    if not blend.is_file():
+        raise BakeError(f"--from-blend: {blend} does not exist")
+    root = Path(__file__).resolve().parents[1]
+    process = subprocess.run([sys.executable, "-c", _FROM_BLEND, str(root), str(blend.resolve()),
+                              material], capture_output=True, text=True, timeout=600)
+    lines = [line for line in process.stdout.splitlines() if line.startswith("{")]
+    if process.returncode != 0 or not lines:
+        tail = (process.stderr.strip().splitlines() or ["no output"])[-1]
+        raise BakeError(f"--from-blend: could not read {blend.name}: {tail}")
+    found = json.loads(lines[-1])
+    if "error" in found:
+        raise BakeError(found["error"])
+    return found
+
+
 def cmd_brdf(args):
     from . import brdf
     from .brdf.plot import albedo_curve, plot_brdf
 
+    if (args.spec is None) == (args.from_blend is None):
+        raise BakeError("brdf: give a spec, or --from-blend FILE.blend --material NAME")
+    if args.from_blend is not None:
+        if not args.material:
+            raise BakeError("brdf: --from-blend needs --material NAME")
+        found = spec_from_blend(args.from_blend, args.material)
+        args.spec = found["spec"]
+        for line in found["ignored"]:
+            print(f"ignored: {line}")
+        for line in found["approximated"]:
+            print(f"approximated: {line}")
     model = brdf.parse(args.spec)
     if args.plot:
         outputs.check_target(args.plot, ".png", what="--plot")
@@ -525,7 +591,11 @@ def _build_parser():
     p.set_defaults(run=cmd_factorize)
 
     p = commands.add_parser("brdf", help="describe a BRDF spec; --plot draws it")
-    p.add_argument("spec", help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")
+    p.add_argument("spec", nargs="?",
+                   help="BRDF spec, e.g. ggx:roughness=0.3 (see bake.brdf.models())")
+    p.add_argument("--from-blend", metavar="FILE.blend",
+                   help="read the spec from a material's node tree (needs the bpy module)")
+    p.add_argument("--material", metavar="NAME", help="the material of --from-blend")
     p.add_argument("--plot", help="write polar slices and the albedo curve to this PNG")
     p.set_defaults(run=cmd_brdf)
     return parser

@@ -13,12 +13,18 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
         probe_key = [str(probe), stamp.st_size, stamp.st_mtime_ns]
     except OSError:
         probe_key = [str(probe), None, None]
-    key = {"spec": material_settings.brdf_spec(), "method": material_settings.method,
+    from ..bake.errors import BakeError
+
+    try:
+        spec = material_settings.brdf_spec()
+    except BakeError as error:  # From Material with an unreadable tree: never up to date
+        spec = f"unreadable: {error}"
+    key = {"spec": spec, "method": material_settings.method,
            "slices": material_settings.slices, "size": material_settings.map_size,
            "size_mode": material_settings.size_mode,
            "lobes": (material_settings.lobes
                      if material_settings.method in ("3d", "hybrid") else 1),
-           "diffuse": [round(c, 6) for c in material_settings.diffuse],
+           "diffuse": [round(c, 6) for c in material_settings.diffuse_colour()],
            "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
                       material_settings.lamp_size_h, material_settings.lamp_method,
                       material_settings.lamp_terms]
@@ -26,6 +32,11 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "probe": probe_key}
     if material_settings.method in ("runtime", "hybrid"):
         key["samples"] = material_settings.samples
+    if material_settings.model == "MATERIAL" and not spec.startswith("unreadable"):
+        from .material_source import parts  # the read spec, weights and images
+
+        found = parts(material_settings.id_data)
+        key["material"] = [found.full_spec, found.derived.digest()]
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -48,6 +59,8 @@ def stamps(text: str) -> dict:
 
 
 def bake_status(material_settings, probe_path) -> str:
+    from ..bake.errors import BakeError
+
     """``missing`` (no file), ``damaged`` (a baked file is not as Glossy wrote it:
     truncated, rewritten or replaced, judged by its recorded size and time),
     ``stale`` (inputs changed) or ``up to date``."""
@@ -59,7 +72,11 @@ def bake_status(material_settings, probe_path) -> str:
         return "missing"
     if settings.runtime_path and not Path(settings.runtime_path).exists():
         return "missing"
-    if any(material_settings.diffuse) and not (
+    try:
+        diffuse = any(material_settings.diffuse_colour())
+    except BakeError:
+        return "stale"
+    if diffuse and not (
             material_settings.diffuse_path and Path(material_settings.diffuse_path).exists()):
         return "missing"
     for path, written in stamps(material_settings.bake_stamp).items():

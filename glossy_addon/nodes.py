@@ -211,7 +211,7 @@ def _group_node(b, tree, values):
 
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
-                 runtime=None, tangent=("RADIAL", "Z")):
+                 runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None):
     """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
 
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
@@ -228,6 +228,9 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     Tangent node) by glossy_addon.sampling_nodes; with ``image`` too, the Hybrid:
     (1 - w) map + w runtime, w(mu) the knots in the runtime meta's
     ``blend_mu`` / ``blend_weight`` (bake.hybrid.blend_curve).
+    ``diffuse_curve``: (mu knots (K,), RGB weights (K, 3)) of a layered material
+    (glossy_addon.material_source): glossy + weight(n.v) diffuse, the weight read
+    by an RGB Curves node with linear (vector) handles.
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -259,7 +262,9 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
         diffuse_value = _irradiance(b, *diffuse)
         if lamp_diffuse is not None:
             diffuse_value = _add(b, diffuse_value, lamp_diffuse)
-        if fresnel_ior > 1.0:
+        if diffuse_curve is not None:
+            value = _add(b, value, _multiply(b, _view_curve(b, *diffuse_curve), diffuse_value))
+        elif fresnel_ior > 1.0:
             fresnel = b._place(tree.nodes.new("ShaderNodeFresnel"))
             fresnel.inputs["IOR"].default_value = fresnel_ior
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
@@ -282,6 +287,41 @@ def _add(b, a, c):
     b.link(a, node.inputs[6])
     b.link(c, node.inputs[7])
     return node.outputs[2]
+
+
+def _multiply(b, a, c):
+    node = b._place(b.nodes.new("ShaderNodeMix"))
+    node.data_type = "RGBA"
+    node.blend_type = "MULTIPLY"
+    node.inputs["Factor"].default_value = 1.0
+    b.link(a, node.inputs[6])
+    b.link(c, node.inputs[7])
+    return node.outputs[2]
+
+
+def _view_curve(b, mu, weights):
+    """RGB weights at mu = n.v (clamped to [0, 1]) from knots: an RGB Curves node fed
+    (mu, mu, mu), one piecewise-linear curve per channel, the combined curve identity."""
+    geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
+    mu_socket = b.math("MAXIMUM", b.vec("DOT_PRODUCT", geometry.outputs["Normal"],
+                                        geometry.outputs["Incoming"]), 0.0)
+    node = b._place(b.nodes.new("ShaderNodeRGBCurve"))
+    node.inputs["Fac"].default_value = 1.0
+    b.link(b.combine(mu_socket, mu_socket, mu_socket), node.inputs["Color"])
+    mapping = node.mapping
+    mapping.use_clip = True
+    for channel in range(3):
+        curve = mapping.curves[channel]
+        while len(curve.points) > 2:
+            curve.points.remove(curve.points[-1])
+        curve.points[0].location = (float(mu[0]), float(weights[0][channel]))
+        curve.points[1].location = (float(mu[-1]), float(weights[-1][channel]))
+        for x, row in zip(mu[1:-1], weights[1:-1], strict=True):
+            curve.points.new(float(x), float(row[channel]))
+        for point in curve.points:
+            point.handle_type = "VECTOR"
+    mapping.update()
+    return node.outputs["Color"]
 
 
 def _tap(b, uv, source):

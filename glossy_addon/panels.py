@@ -129,6 +129,29 @@ def _draw_lamps(layout, material, scene):
                 icon="INFO")
 
 
+def _draw_from_material(layout, material):
+    """The spec read from the node tree, what it ignores or approximates, and which
+    inputs changed since the bake (glossy_addon.material_source)."""
+    from .material_source import NodeReadError, changed_inputs, derive
+
+    box = layout.box()
+    try:
+        derived = derive(material)
+    except NodeReadError as error:
+        _reason(box, f"Cannot read the material: {error}", icon="ERROR")
+        return
+    _reason(box, f"Spec: {derived.spec}", icon="NODETREE")
+    for line in derived.ignored:
+        _reason(box, f"Ignored: {line}", icon="ERROR")
+    for line in derived.approximated:
+        _reason(box, f"Approximated: {line}", icon="INFO")
+    settings = material.glossy
+    if settings.bake_inputs:
+        changed = changed_inputs(settings.bake_inputs, derived)
+        if changed:
+            _reason(box, f"Changed since the bake: {', '.join(changed)}", icon="ERROR")
+
+
 def _draw_bump(layout, column, settings):
     """The Bump-Map BRDF fields, the compute button, its status and the plot."""
     column.prop(settings, "bump_source")
@@ -174,7 +197,9 @@ class GLOSSY_PT_material(bpy.types.Panel):
         layout = self.layout
         column = layout.column(align=True)
         column.prop(settings, "model")
-        if settings.model == "CUSTOM":
+        if settings.model == "MATERIAL":
+            _draw_from_material(layout, context.material)
+        elif settings.model == "CUSTOM":
             column.prop(settings, "spec")
         elif settings.model == "BUMP":
             _draw_bump(layout, column, settings)
@@ -200,8 +225,9 @@ class GLOSSY_PT_material(bpy.types.Panel):
                     if settings.tangent_note:
                         _reason(column, settings.tangent_note, icon="ERROR")
             column.prop(settings, "color")
-        layout.prop(settings, "diffuse")
-        layout.prop(settings, "fresnel_ior")
+        if settings.model != "MATERIAL":
+            layout.prop(settings, "diffuse")
+            layout.prop(settings, "fresnel_ior")
         column = _props(layout, settings, ("method",))
         if settings.method in ("3d", "2d", "hybrid"):
             column.prop(settings, "slices")

@@ -122,6 +122,9 @@ class GlossyObjectSettings(bpy.types.PropertyGroup):
 
 
 MODEL_ITEMS = [
+    ("MATERIAL", "From Material", "Read the BRDF from the material's own node tree "
+     "(Principled, Glossy and Diffuse BSDFs, Mix and Add Shaders): the panel shows the spec "
+     "and lists what Glossy ignores"),
     ("ggx", "GGX", "Cycles' GGX (Glossy BSDF, GGX distribution)"),
     ("beckmann", "Beckmann", "Cycles' Beckmann"),
     ("ashikhmin_shirley", "Ashikhmin-Shirley", "Cycles' Ashikhmin-Shirley"),
@@ -268,6 +271,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     bake_history: bpy.props.StringProperty(
         name="Baked Files", description="Files this material's bakes wrote (JSON)")
     bake_time: bpy.props.FloatProperty(name="Bake Time")
+    bake_inputs: bpy.props.StringProperty(
+        name="Baked Inputs", description="The node tree's BRDF inputs at the last bake (From "
+        "Material, JSON): the panel names those that changed since")
     validation_error: bpy.props.FloatProperty(
         name="Error vs Cycles", description="Relative RMS (luminance) of EEVEE with Glossy "
         "against Cycles at the last validation", default=-1.0)
@@ -330,7 +336,13 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         return f"bump:preset={self.bump_source},size={self.bump_size},{shape},{fresnel}"
 
     def brdf_spec(self) -> str:
+        """The glossy part's bake.brdf spec (From Material: read from the node tree,
+        glossy_addon.material_source; raises NodeReadError if the tree has none)."""
         color = "/".join(f"{c:g}" for c in self.color)
+        if self.model == "MATERIAL":
+            from .material_source import parts
+
+            return parts(self.id_data).glossy_spec
         if self.model == "CUSTOM":
             return self.spec
         if self.model == "BUMP":
@@ -345,6 +357,14 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         if self.anisotropy != 0.0:
             lobe = f",anisotropy={self.anisotropy:g},rotation={self.rotation:g}"
         return f"{self.model}:roughness={self.roughness:g}{lobe},color={color}"
+
+    def diffuse_colour(self) -> tuple:
+        """(r, g, b) of the diffuse part baked as irradiance (black: none)."""
+        if self.model == "MATERIAL":
+            from .material_source import parts
+
+            return parts(self.id_data).diffuse
+        return tuple(float(c) for c in self.diffuse)
 
     def tangent(self) -> tuple:
         """("RADIAL", axis) or ("UV_MAP", name): the Tangent node's settings."""

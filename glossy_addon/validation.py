@@ -30,6 +30,15 @@ def truth_material(material, tangent=None):
     tangent: ("RADIAL", axis) or ("UV_MAP", name) for an anisotropic lobe (default:
     the material's own, glossy_addon.materials.effective_tangent)."""
     settings = material.glossy
+    if settings.model == "MATERIAL":  # the user's own material is the truth
+        from .material_source import source_material
+
+        truth = source_material(material).copy()
+        truth.name = f"{material.name} (Glossy truth)"
+        truth.use_fake_user = False
+        if truth.glossy.original is not None:
+            truth.glossy.original = None
+        return truth, None
     try:
         model = brdf.parse(settings.brdf_spec())
     except (BakeError, ValueError) as error:
@@ -109,6 +118,10 @@ def reference_parts(material):
     the glossy BRDF, and the diffuse colour as Lambert, weighted by the dielectric
     Fresnel term of n.v (F glossy + (1 - F) diffuse) when Fresnel IOR > 1."""
     settings = material.glossy
+    if settings.model == "MATERIAL":  # the whole read BRDF, diffuse layer included
+        from .material_source import parts as material_parts
+
+        return [(brdf.parse(material_parts(material).full_spec), "one")]
     fresnel = settings.fresnel_ior > 1.0
     parts = [(brdf.parse(settings.brdf_spec()), "fresnel" if fresnel else "one")]
     if any(settings.diffuse):

@@ -13,6 +13,7 @@ from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
 from ..glossy_addon.lamps import lamp_set, scene_lamps
+from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent, stash_original
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
@@ -94,6 +95,8 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
     settings.chosen_size = rows
     settings.size_reason = reason
     settings.bake_hash = bake_inputs_hash(settings, probe_path)
+    settings.bake_inputs = material_parts(material).derived.inputs_json() \
+        if settings.model == "MATERIAL" else ""
     settings.bake_time = time.time()
     return f"baked {material.name}: {reason}"
     yield  # a generator
@@ -205,7 +208,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 runtime_path = ownership.claim(folder, stem, "_hybrid_runtime.exr", material,
                                                taken)
                 taken.add(runtime_path)
-            if any(settings.diffuse):
+            if any(settings.diffuse_colour()):
                 diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
                 taken.add(diffuse_path)
             if wants_lamps:
@@ -288,7 +291,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 reason += f"; {runtime_reason}"
         diffuse = None
         if diffuse_path is not None:
-            color = "/".join(f"{c:g}" for c in settings.diffuse)
+            color = "/".join(f"{c:g}" for c in settings.diffuse_colour())
             irradiance = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                 probe, f"lambert:color={color}", "irradiance", size, layout=layout,
                 max_size=max_size)), 0.85, 0.95)
@@ -393,10 +396,13 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if settings.lamp_path and settings.lamps:
                     _, lamp_meta = exr.read(settings.lamp_path)
                     lamp_terms = (load_atlas(settings.lamp_path, precision="float32"), lamp_meta,
-                                  lamps, tuple(settings.diffuse))
+                                  lamps, settings.diffuse_colour())
                 stash_original(material)
-                build_lookup(material, image, meta, diffuse, settings.fresnel_ior, lamp_terms,
-                             runtime=runtime, tangent=tangent)
+                weighting = material_parts(material).weighting
+                build_lookup(material, image, meta, diffuse,
+                             weighting[1] if weighting[0] == "fresnel" else 0.0, lamp_terms,
+                             runtime=runtime, tangent=tangent,
+                             diffuse_curve=weighting[1:] if weighting[0] == "curve" else None)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1

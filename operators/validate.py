@@ -25,6 +25,7 @@ from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
 from ..bake.progress import prefixed_steps, run_steps
 from ..glossy_addon import validation as glue
+from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
@@ -248,7 +249,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                                                          f"{obj.name} / {material.name}")
             entries.append({"object": obj.name, "material": material.name,
                             "materials": [m.name for m in materials],
-                            "brdf": material.glossy.brdf_spec(), "sheet": sheet_name,
+                            "brdf": material_parts(material).full_spec, "sheet": sheet_name,
                             "mask_layer": f"mask.{obj.name}", "figures": figures})
             self._store(materials, figures, date)
         if not entries:
