@@ -280,19 +280,17 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
 
 
 def _add(b, a, c):
-    node = b._place(b.nodes.new("ShaderNodeMix"))
-    node.data_type = "RGBA"
-    node.blend_type = "ADD"
-    node.inputs["Factor"].default_value = 1.0
-    b.link(a, node.inputs[6])
-    b.link(c, node.inputs[7])
-    return node.outputs[2]
+    return _mix_rgb(b, "ADD", a, c)
 
 
 def _multiply(b, a, c):
+    return _mix_rgb(b, "MULTIPLY", a, c)
+
+
+def _mix_rgb(b, blend_type, a, c):
     node = b._place(b.nodes.new("ShaderNodeMix"))
     node.data_type = "RGBA"
-    node.blend_type = "MULTIPLY"
+    node.blend_type = blend_type
     node.inputs["Factor"].default_value = 1.0
     b.link(a, node.inputs[6])
     b.link(c, node.inputs[7])

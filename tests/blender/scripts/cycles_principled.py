@@ -14,7 +14,6 @@ approximated lists, n, T, and the measured pixels.
 """
 
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -26,11 +25,8 @@ sys.path.insert(0, str(repo))
 
 import _checkout  # noqa: E402,F401  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+from _plane_grid import PlaneGrid  # noqa: E402
 from glossy.glossy_addon.node_reader import read_material  # noqa: E402
-from glossy.glossy_addon.scenes import exact_cycles, float_exr_output  # noqa: E402
-from mathutils import Vector  # noqa: E402
-
-from bake import exr  # noqa: E402
 
 GRID, CELL = 5, 16
 SUNS = [np.array([0.5, 0.3, 0.8]), np.array([0.9, -0.2, 0.35])]
@@ -134,36 +130,9 @@ for index in range(GRID * GRID):
     configs.append({"kind": kind, "normal": normal.tolist(),
                     "tangent": rng.normal(size=3).tolist()})
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-exact_cycles(scene, 4)
-cycles = scene.cycles
-cycles.caustics_reflective = True
-float_exr_output(scene, GRID * CELL)
-
-world = bpy.data.worlds.new("world")
-world.use_nodes = True
-scene.world = world
-background = world.node_tree.nodes["Background"]
-
-camera_data = bpy.data.cameras.new("camera")
-camera_data.type = "ORTHO"
-camera_data.ortho_scale = float(GRID)
-camera = bpy.data.objects.new("camera", camera_data)
-camera.location = (0.0, 0.0, 10.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+grid = PlaneGrid(workdir, GRID, CELL)
 
 for index, config in enumerate(configs):
-    row, col = divmod(index, GRID)
-    bpy.ops.mesh.primitive_plane_add(size=0.6, location=(col - GRID / 2 + 0.5,
-                                                         GRID / 2 - 0.5 - row, 0.0))
-    plane = bpy.context.object
-    plane.rotation_euler = Vector((0, 0, 1)).rotation_difference(
-        Vector(config["normal"])).to_euler()
-    plane.visible_shadow = False
-    plane.visible_glossy = False
-    plane.visible_diffuse = False  # the furnace: no plane hides the world from another
     material = bpy.data.materials.new(f"{config['kind']}_{index}")
     material.use_nodes = True
     tree = material.node_tree
@@ -171,60 +140,13 @@ for index, config in enumerate(configs):
     surface = build(config["kind"], tree, config["tangent"])
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(surface.outputs[0], output.inputs["Surface"])
-    plane.data.materials.append(material)
     derived = read_material(material)
     config.update({"spec": derived.spec, "ignored": derived.ignored,
                    "approximated": derived.approximated})
-    bpy.context.view_layer.update()
-    config["normal_blender"] = list(plane.matrix_world.to_3x3() @ Vector((0, 0, 1)))
+    config["normal_blender"] = grid.plane(index, config["normal"], material)
 
 
-def render(name):
-    scene.render.filepath = str(workdir / f"{name}.exr")
-    bpy.ops.render.render(write_still=True)
-    image, _ = exr.read(workdir / f"{name}.exr")
-    windows = []
-    for index in range(GRID * GRID):
-        row, col = divmod(index, GRID)
-        centre_r, centre_c = row * CELL + CELL // 2, col * CELL + CELL // 2
-        windows.append(image[centre_r - 3:centre_r + 3, centre_c - 3:centre_c + 3, :3])
-    return np.stack(windows)
-
-
-report = {"configs": configs, "suns": [], "furnace": {}}
-cycles.samples = 4
-cycles.max_bounces = 0
-background.inputs["Color"].default_value = (0, 0, 0, 1)
-sun_data = bpy.data.lights.new("sun", "SUN")
-sun_data.energy = 1.0
-sun_data.angle = 0.0
-sun = bpy.data.objects.new("sun", sun_data)
-scene.collection.objects.link(sun)
-for k, direction in enumerate(SUNS):
-    direction = direction / np.linalg.norm(direction)
-    sun.rotation_euler = Vector((0, 0, 1)).rotation_difference(Vector(direction)).to_euler()
-    windows = render(f"sun{k}")
-    spread = windows.max(axis=(1, 2)) - windows.min(axis=(1, 2))
-    report["suns"].append({"direction": direction.tolist(),
-                           "mean": windows.mean(axis=(1, 2)).tolist(), "spread": spread.tolist()})
-sun_data.energy = 0.0
-sun.hide_render = True
-
-cycles.samples = 512
-cycles.max_bounces = 1
-cycles.glossy_bounces = 1
-cycles.diffuse_bounces = 1
-background.inputs["Color"].default_value = (1, 1, 1, 1)
-seeds = []
-for seed in (1, 2):
-    cycles.seed = seed
-    seeds.append(render(f"furnace{seed}"))
-pixels = np.concatenate(seeds, axis=1)
-count = pixels.shape[1] * pixels.shape[2]
-report["furnace"] = {
-    "mean": pixels.mean(axis=(1, 2)).tolist(),
-    "stderr": (pixels.std(axis=(1, 2), ddof=1) / math.sqrt(count)).tolist(),
-    "seed_difference": np.abs(seeds[0].mean(axis=(1, 2)) - seeds[1].mean(axis=(1, 2))).tolist(),
-}
+report = {"configs": configs, "suns": grid.sun_renders(SUNS),
+          "furnace": grid.furnace_renders(512)}
 with open(result_path, "w") as handle:
     json.dump(report, handle, indent=1)
