@@ -145,42 +145,10 @@ def cmd_mip(args):
         print(f"wrote {path} ({layout} level {index}, {level.shape[0]}x{level.shape[1]})")
 
 
-_FROM_BLEND = """
-import json, os, sys, tempfile
-root, blend, name = sys.argv[1:4]
-folder = tempfile.mkdtemp(prefix="glossy_read_")
-os.symlink(root, os.path.join(folder, "glossy"))
-sys.path.insert(0, folder)
-try:
-    import bpy
-except ImportError:
-    print(json.dumps({"error": "reading a .blend needs the bpy module (pip install bpy==5.0.1)"}))
-    sys.exit(0)
-bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
-import glossy
-glossy.register()  # Material.glossy: the kept original of an attached material
-from glossy.glossy_addon.node_reader import NodeReadError, read_material
-material = bpy.data.materials.get(name)
-if material is None:
-    names = ", ".join(sorted(m.name for m in bpy.data.materials)) or "none"
-    print(json.dumps({"error": f"{blend} has no material {name!r} (it has: {names})"}))
-    sys.exit(0)
-if material.glossy.original is not None:  # Glossy's lookup replaced the nodes
-    material = material.glossy.original
-try:
-    found = read_material(material)
-except NodeReadError as error:
-    print(json.dumps({"error": str(error)}))
-    sys.exit(0)
-print(json.dumps({"spec": found.spec, "ignored": found.ignored,
-                  "approximated": found.approximated}))
-"""
-
-
 def spec_from_blend(blend, material) -> dict:
     """{spec, ignored, approximated} of ``material`` in ``blend``, read by
-    glossy_addon.node_reader in a subprocess with the bpy module (bake never
-    imports bpy). Raises BakeError with the reason."""
+    glossy_addon.node_reader in a subprocess running glossy_addon/read_blend.py
+    with the bpy module (bake never imports bpy). Raises BakeError with the reason."""
     import json
     import subprocess
 
@@ -188,7 +156,8 @@ def spec_from_blend(blend, material) -> dict:
     if not blend.is_file():
         raise BakeError(f"--from-blend: {blend} does not exist")
     root = Path(__file__).resolve().parents[1]
-    process = subprocess.run([sys.executable, "-c", _FROM_BLEND, str(root), str(blend.resolve()),
+    script = root / "glossy_addon" / "read_blend.py"
+    process = subprocess.run([sys.executable, str(script), str(root), str(blend.resolve()),
                               material], capture_output=True, text=True, timeout=600)
     lines = [line for line in process.stdout.splitlines() if line.startswith("{")]
     if process.returncode != 0 or not lines:
