@@ -2,8 +2,9 @@
 diffuse colour and how the diffuse part is weighted by the view.
 
 For the "From Material" source the BRDF is read from the user's own node tree
-(glossy_addon.node_reader): from the kept original once Glossy has attached
-its lookup (the lookup replaced the nodes), else from the material itself.
+(glossy_addon.node_reader): from the material's own nodes, which an attach
+keeps beside the lookup (from the kept original where an older attach
+replaced them).
 The full model splits (bake.brdf.split) into the glossy part a map bakes and
 a Lambert part D(mu) = colour * weight(mu) baked as irradiance and weighted in
 the attached material by the view cosine mu (an RGB curve of 33 knots).
@@ -13,7 +14,7 @@ images), so a panel redraw does not read image pixels again.
 """
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .node_reader import Derived, NodeReadError, read_material
 
@@ -28,19 +29,28 @@ class Parts:
     """glossy_spec: what the map bakes; diffuse: (3,) colour of the irradiance part
     (black: none); weighting: ("one",), ("fresnel", ior) or ("curve", mu, weights)
     with knots mu (K,) and RGB weights (K, 3) in [0, 1]; full_spec: the whole BRDF
-    (the NumPy reference's); derived: the node reader's findings (From Material)."""
+    (the NumPy reference's); derived: the node reader's findings (From Material);
+    roughness_set: [(roughness, glossy spec), ...] ascending, the maps a roughness
+    texture blends per pixel (glossy_addon.spatial; empty: none)."""
 
     glossy_spec: str
     diffuse: tuple
     weighting: tuple
     full_spec: str
     derived: Derived | None = None
+    roughness_set: list = field(default_factory=list)
 
 
 def source_material(material):
-    """The material whose nodes hold the user's BRDF: the kept original after an attach."""
+    """The material whose nodes hold the user's BRDF: the material itself (an attach
+    keeps the user's nodes beside the lookup), or the kept original where an
+    older attach replaced the nodes (no Material Output of the user's left)."""
+    from .nodes import user_output
+
     original = material.glossy.original
-    return original if original is not None else material
+    if original is None or user_output(material) is not None:
+        return material
+    return original
 
 
 def _socket_value(socket):
@@ -56,8 +66,12 @@ def _socket_value(socket):
 def _signature(material) -> str:
     if not material.use_nodes or material.node_tree is None:
         return f"{material.name}:no nodes"
+    from .nodes import is_lookup_node
+
     items = []
     for node in material.node_tree.nodes:
+        if is_lookup_node(node):
+            continue
         entry = [node.name, node.bl_idname, getattr(node, "distribution", ""),
                  [(s.identifier, _socket_value(s)) for s in node.inputs],
                  [(s.identifier, _socket_value(s)) for s in node.outputs
@@ -68,7 +82,9 @@ def _signature(material) -> str:
             entry.append([image.name, image.filepath, list(image.size), image.is_dirty])
         items.append(entry)
     links = [(link.from_node.name, link.from_socket.identifier, link.to_node.name,
-              link.to_socket.identifier, link.is_muted) for link in material.node_tree.links]
+              link.to_socket.identifier, link.is_muted) for link in material.node_tree.links
+             if not is_lookup_node(link.to_node)]
+    items.append(material.get("glossy_user_output", ""))
     return json.dumps([material.name, items, links], default=str)
 
 
@@ -114,7 +130,25 @@ def parts(material) -> Parts:
     glossy_spec = glossy.spec if glossy is not None else "lambert:color=0"
     weighting = ("curve", mu.tolist(), weight.tolist()) if colour.any() else ("one",)
     return Parts(glossy_spec, tuple(float(c) for c in colour), weighting, derived.spec,
-                 derived)
+                 derived, _roughness_set(derived) if glossy is not None else [])
+
+
+def _roughness_set(derived) -> list:
+    """[(roughness, glossy spec)] at the knots of a roughness texture (see Parts)."""
+    from ..bake import brdf
+    from ..bake.brdf.split import split
+    from .spatial import roughness_knots, with_roughness
+
+    texture = derived.spatial.get("roughness")
+    if not texture or "low" not in texture:
+        return []
+    out = []
+    for roughness in roughness_knots(texture["low"], texture["high"]):
+        glossy, _ = split(brdf.parse(with_roughness(derived.spec, roughness)))
+        if glossy is None or not glossy.isotropic:
+            return []
+        out.append((roughness, glossy.spec))
+    return out
 
 
 def changed_inputs(baked_json: str, derived: Derived) -> list:

@@ -1,10 +1,12 @@
-"""The user's material before Glossy replaced its nodes: kept, and put back.
+"""The user's material before Glossy attached its lookup: kept, and put back.
 
-Attaching a lookup rebuilds the material's node tree. The first attach keeps
-a copy of the material as it was (``<name> (before Glossy)``, with a fake
-user, referenced by ``material.glossy.original``); :func:`restore_original`
-remaps every user of the lookup material back to that copy, which takes the
-original name and the current Glossy settings.
+Attaching a lookup adds Glossy's nodes beside the user's and makes its own
+Material Output active (glossy_addon.nodes.build_lookup). The first attach
+also keeps a copy of the material as it was (``<name> (before Glossy)``, with
+a fake user, referenced by ``material.glossy.original``): the truth of
+validation where the user's nodes are gone, and what an older attach (which
+replaced the nodes) is restored from. :func:`restore_original` takes the
+lookup off again.
 """
 
 import bpy
@@ -23,9 +25,26 @@ def stash_original(material) -> None:
 
 
 def restore_original(material):
-    """Put the kept original in place of ``material`` everywhere; returns the
-    restored material (``material`` itself is removed), or None if none was kept."""
+    """Take Glossy's lookup off ``material``; returns the restored material.
+
+    An attach keeps the user's nodes beside the lookup: the lookup's nodes are
+    removed and the user's Material Output is active again (edits made since
+    the attach stay), and the kept copy is dropped when no other material
+    keeps it. A material whose nodes an older attach replaced gets the kept
+    original back in its place everywhere (``material`` itself is removed).
+    None if there is no lookup to take off."""
+    from .nodes import is_lookup_node, strip_lookup, user_output
+
     original = material.glossy.original
+    tree = material.node_tree if material.use_nodes else None
+    if tree is not None and any(is_lookup_node(n) for n in tree.nodes) and \
+            user_output(material) is not None:
+        strip_lookup(material)
+        material.glossy.original = None
+        if original is not None and original.use_fake_user and not any(
+                other.glossy.original == original for other in bpy.data.materials):
+            bpy.data.materials.remove(original)
+        return material
     if original is None:
         return None
     for prop in material.glossy.bl_rna.properties:

@@ -34,6 +34,9 @@ GLOSSY_MODELS = {"GGX": "ggx", "BECKMANN": "beckmann", "ASHIKHMIN_SHIRLEY": "ash
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 #: Below this roughness Cycles renders a perfect mirror (CYCLES.md).
 MIN_ROUGHNESS = 0.01
+#: A colour applied per pixel is baked at its mean, each channel at least this
+#: (the per-pixel factor divides by it).
+COLOUR_FLOOR = 1e-3
 
 
 class NodeReadError(BakeError):
@@ -45,7 +48,11 @@ class Derived:
     """What the reader found: ``spec`` (bake.brdf), and the lists of the module docstring.
 
     ``inputs``: {input label: value} of every BRDF-relevant input (the staleness
-    hash); ``images``: identities of the images read (name, file, size).
+    hash); ``images``: identities of the images read (name, file, size);
+    ``spatial``: what the attached lookup applies per pixel (see
+    :func:`spatial_inputs`): {"colour": {"node", "input", "mean" (3,), "part":
+    "glossy" | "diffuse", "exact"}, "normal": {"node", "input"}, "roughness":
+    {"node", "input", "low", "high"}}, node and input names of the tree read.
     """
 
     spec: str
@@ -53,6 +60,7 @@ class Derived:
     approximated: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     images: list = field(default_factory=list)
+    spatial: dict = field(default_factory=dict)
 
     def digest(self) -> str:
         """Hash of the derived spec and the images' identities (16 hex digits)."""
@@ -78,6 +86,8 @@ class _Reader:
     def __init__(self, material):
         self.material = material
         self.derived = Derived(spec="")
+        #: {(node name, input name): plan} of the inputs applied per pixel (plan_spatial)
+        self.per_pixel = {}
 
     # --- sockets ---------------------------------------------------------------------------
     @staticmethod
@@ -94,7 +104,9 @@ class _Reader:
             return node, link.from_socket
         return None, None
 
-    def _image_mean(self, node, output, colour):
+    def _image_values(self, node, output, colour):
+        """Per-pixel values of an Image Texture output: (N, 3) linear RGB, or (N,)
+        for a float socket (alpha, or Blender's luminance of the colour)."""
         image = node.image
         pixels = np.empty(len(image.pixels), dtype=np.float32)
         image.pixels.foreach_get(pixels)
@@ -105,11 +117,12 @@ class _Reader:
         if not image.is_float and space in ("sRGB", "sRGB EOTF"):
             rgb = _srgb_to_linear(rgb)
         if output.name == "Alpha" and channels == 4:
-            mean = np.full(3, pixels[:, 3].mean())
-        else:
-            mean = rgb.mean(axis=0)
+            rgb = np.repeat(pixels[:, 3:4], 3, axis=1)
         self.derived.images.append([image.name, image.filepath, list(image.size)])
-        return mean if colour else float(np.dot(mean, LUMINANCE))
+        return rgb if colour else rgb @ np.asarray(LUMINANCE)
+
+    def _image_mean(self, node, output, colour):
+        return self._image_values(node, output, colour).mean(axis=0)
 
     def value(self, node, name, label=None):
         """The value of input ``name`` of ``node`` (float or (3,) array), noting links."""
@@ -130,10 +143,19 @@ class _Reader:
                     else float(raw)
         elif source.bl_idname == "ShaderNodeTexImage" and source.image is not None \
                 and len(source.image.pixels):
-            value = self._image_mean(source, output, colour)
-            self.derived.approximated.append(
-                f"{label}: image '{source.image.name}' taken at its mean ({_fmt(value)}); "
-                f"the texture stays in the material but is not applied per pixel")
+            values = self._image_values(source, output, colour)
+            value = values.mean(axis=0)
+            plan = self.per_pixel.get((node.name, name))
+            if plan is None:
+                self.derived.approximated.append(
+                    f"{label}: image '{source.image.name}' taken at its mean ({_fmt(value)}); "
+                    f"the texture stays in the material but is not applied per pixel")
+            elif plan["kind"] == "roughness":
+                low, high = np.percentile(values, [1.0, 99.0])
+                plan.update(low=float(np.clip(low, 0.0, 1.0)), high=float(np.clip(high, 0, 1)))
+        elif (node.name, name) in self.per_pixel and \
+                self.per_pixel[(node.name, name)]["kind"] == "colour":
+            value = own
         else:
             value = own
             self.derived.approximated.append(
@@ -147,6 +169,78 @@ class _Reader:
         return socket is not None and self._source(socket)[0] is not None
 
     # --- shaders ---------------------------------------------------------------------------
+    def colour(self, node, name):
+        """A colour input in [0, 1]; one applied per pixel at least COLOUR_FLOOR."""
+        colour = np.clip(self.value(node, name), 0.0, 1.0)
+        if (node.name, name) in self.per_pixel:
+            colour = np.maximum(colour, COLOUR_FLOOR)
+        return colour
+
+    def varying(self, node, name) -> bool:
+        """True if input ``name`` is driven by a node chain (not an RGB / Value node)."""
+        socket = node.inputs.get(name)
+        source = self._source(socket)[0] if socket is not None else None
+        return source is not None and source.bl_idname not in ("ShaderNodeRGB",
+                                                                "ShaderNodeValue")
+
+    def plan_spatial(self, top):
+        """Which inputs of the surface's only BSDF node ``top`` the lookup applies per
+        pixel (module docstring of glossy_addon.spatial): its colour where the
+        reflection is linear in it, its Normal, its Roughness from an image."""
+        kind = top.bl_idname
+        principled = kind == "ShaderNodeBsdfPrincipled"
+        if kind not in ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse",
+                        "ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfGlossy"):
+            return
+        colour_input, part, exact = "Color", "glossy", True
+        if principled:
+            colour_input = "Base Color"
+            metallic = float(top.inputs["Metallic"].default_value)
+            part = None if self.linked(top, "Metallic") or 0.0 < metallic < 1.0 else \
+                "diffuse" if metallic == 0.0 else "glossy"
+            exact = part == "diffuse"
+        elif kind == "ShaderNodeBsdfDiffuse":
+            part = "diffuse"
+        else:
+            exact = top.distribution != "MULTI_GGX"
+        if part is not None and self.varying(top, colour_input):
+            self.per_pixel[(top.name, colour_input)] = {
+                "kind": "colour", "node": top.name, "input": colour_input, "part": part,
+                "exact": exact}
+        if self.linked(top, "Normal"):
+            self.per_pixel[(top.name, "Normal")] = {"kind": "normal", "node": top.name,
+                                                    "input": "Normal"}
+        source = self._source(top.inputs["Roughness"])[0] if "Roughness" in top.inputs \
+            else None
+        if source is not None and source.bl_idname == "ShaderNodeTexImage" and \
+                source.image is not None and len(source.image.pixels) and \
+                kind != "ShaderNodeBsdfDiffuse":
+            self.per_pixel[(top.name, "Roughness")] = {"kind": "roughness", "node": top.name,
+                                                       "input": "Roughness"}
+
+    def spatial_notes(self):
+        """Derived.spatial and one 'approximated' line per input applied per pixel."""
+        d = self.derived
+        for (node_name, name), plan in self.per_pixel.items():
+            label = f"{node_name}: {name}"
+            if plan["kind"] == "colour":
+                mean = np.maximum(np.clip(d.inputs[label], 0.0, 1.0), COLOUR_FLOOR)
+                plan["mean"] = [float(c) for c in mean]
+                how = "exact: the reflection is linear in it" if plan["exact"] else \
+                    ("approximate: the metal's Fresnel colour at grazing angles follows the "
+                     "baked mean" if plan["part"] == "glossy" else "approximate")
+                d.approximated.append(f"{label}: applied per pixel as a factor of the "
+                                      f"{plan['part']} part baked at {_fmt(mean)} ({how})")
+            elif plan["kind"] == "normal":
+                d.approximated.append(f"{label}: the linked normal (normal or bump map) feeds "
+                                      "the lookup's normal per pixel")
+            elif "low" in plan:
+                d.approximated.append(
+                    f"{label}: varies from {plan['low']:.3g} to {plan['high']:.3g} (1st-99th "
+                    "percentile): the map is baked at a few roughness values and blended per "
+                    "pixel")
+            d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+
     def shader(self, socket, path):
         source, _ = self._source(socket)
         if source is None:
@@ -209,6 +303,8 @@ class _Reader:
 
     def _note_normal(self, node, names=("Normal",)):
         for name in names:
+            if (node.name, name) in self.per_pixel:
+                continue
             if self.linked(node, name):
                 self.derived.ignored.append(f"{node.name}: the link into {name} (normal or bump "
                                             "maps are not applied)")
@@ -219,14 +315,14 @@ class _Reader:
             if "Anisotropy" in node.inputs else 0.0
         rotation = float(self.value(node, "Rotation")) % 1.0 if "Rotation" in node.inputs \
             else 0.0
-        colour = np.clip(self.value(node, "Color"), 0.0, 1.0)
+        colour = self.colour(node, "Color")
         self._note_normal(node, ("Normal", "Tangent"))
         model = GLOSSY_MODELS[node.distribution]
         return (f"{model}:roughness={roughness:.6g},anisotropy={anisotropy:.6g},"
                 f"rotation={rotation:.6g},color={_fmt(colour)}")
 
     def diffuse(self, node):
-        colour = np.clip(self.value(node, "Color"), 0.0, 1.0)
+        colour = self.colour(node, "Color")
         if float(self.value(node, "Roughness")) > 0.0:
             self.derived.approximated.append(f"{node.name}: Roughness > 0 (Oren-Nayar) is "
                                              "taken as Lambert")
@@ -254,7 +350,7 @@ class _Reader:
             d.approximated.append(f"{node.name}: Diffuse Roughness > 0 (Oren-Nayar) is taken "
                                   "as Lambert")
         self._note_normal(node, ("Normal", "Coat Normal", "Tangent"))
-        base = np.clip(self.value(node, "Base Color"), 0.0, 1.0)
+        base = self.colour(node, "Base Color")
         values = {
             "base_color": _fmt(base),
             "metallic": _fmt(np.clip(self.value(node, "Metallic"), 0, 1)),
@@ -278,10 +374,17 @@ class _Reader:
 
 
 def output_node(material):
-    """The Material Output Cycles renders (active, target All or Cycles), or None."""
+    """The Material Output Cycles renders (active, target All or Cycles), or None;
+    in a material with Glossy's lookup attached, the user's own output (the
+    lookup's output is active there, glossy_addon.nodes.user_output)."""
     if not material.use_nodes or material.node_tree is None:
         return None
     tree = material.node_tree
+    from .nodes import is_lookup_node, user_output
+
+    if any(is_lookup_node(node) for node in tree.nodes):
+        node = user_output(material)
+        return node if node is not None and node.target in ("ALL", "CYCLES") else None
     for target in ("CYCLES", "ALL"):
         try:
             node = tree.get_output_node(target)
@@ -306,7 +409,11 @@ def read_material(material) -> Derived:
         reader.derived.ignored.append(f"{output.name}: the volume shader")
     if output.inputs["Displacement"].is_linked:
         reader.derived.ignored.append(f"{output.name}: displacement")
+    top = reader._source(output.inputs["Surface"])[0]
+    if top is not None:
+        reader.plan_spatial(top)
     spec = reader.shader(output.inputs["Surface"], output.name)
+    reader.spatial_notes()
     if not spec:
         raise NodeReadError(f"{material.name}: the surface reflects nothing Glossy can bake "
                             f"({'; '.join(reader.derived.ignored) or 'no BSDF'})")

@@ -211,9 +211,14 @@ def _group_node(b, tree, values):
 
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
-                 runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None):
-    """Replace ``material``'s nodes by the atlas lookup of ``image`` (bake.atlas layout).
+                 runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
+                 roughness_maps=None):
+    """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
+    it the active Material Output's surface.
 
+    The user's own nodes stay in the tree, untouched (their Material Output is
+    made inactive; :func:`strip_lookup` makes it active again); Glossy's nodes
+    are tagged (:data:`TAG`) and a re-attach replaces only them.
     The arithmetic lives in two shared, versioned node groups (``Glossy Slice
     Blend v1``, ``Glossy Atlas Taps v1``); the material holds the image taps,
     which shader node groups cannot take as inputs. ``diffuse``: an optional
@@ -231,13 +236,27 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     ``diffuse_curve``: (mu knots (K,), RGB weights (K, 3)) of a layered material
     (glossy_addon.material_source): glossy + weight(n.v) diffuse, the weight read
     by an RGB Curves node with linear (vector) handles.
+    ``spatial``: the user's sockets applied per pixel (glossy_addon.spatial):
+    {"normal": socket} replaces the geometric normal of every lookup;
+    {"glossy" | "diffuse": (colour socket, baked mean (3,))} multiplies that part
+    by socket / mean. ``roughness_maps``: (roughness socket, [(roughness,
+    image, meta), ...] ascending) blends the environment lookups of maps baked
+    at those roughnesses by tent weights of the socket's value (clamped to
+    their range); ``image`` / ``meta`` are then unused.
     """
     material.use_nodes = True
     tree = material.node_tree
-    tree.animation_data_clear()  # the previous attach's lamp drivers
-    tree.nodes.clear()
+    _remove_lookup(tree)
+    user_nodes = {node.name for node in tree.nodes}
+    user_output = _user_output(tree)
+    if user_output is not None:
+        material[USER_OUTPUT] = user_output.name
+    spatial = spatial or {}
     b = _Builder(tree)
-    value = _environment(b, image, meta) if image is not None else None
+    if roughness_maps is not None:
+        value = _roughness_blend(b, *roughness_maps)
+    else:
+        value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
         from .sampling_nodes import hybrid_value, runtime_value, tangent_socket
 
@@ -258,10 +277,14 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
             value = lamp_glossy if value is None else _add(b, value, lamp_glossy)
     if value is None:
         value = b.combine(0.0, 0.0, 0.0)
+    if "glossy" in spatial:
+        value = _multiply(b, value, _factor(b, *spatial["glossy"]))
     if diffuse is not None:
         diffuse_value = _irradiance(b, *diffuse)
         if lamp_diffuse is not None:
             diffuse_value = _add(b, diffuse_value, lamp_diffuse)
+        if "diffuse" in spatial:
+            diffuse_value = _multiply(b, diffuse_value, _factor(b, *spatial["diffuse"]))
         if diffuse_curve is not None:
             value = _add(b, value, _multiply(b, _view_curve(b, *diffuse_curve), diffuse_value))
         elif fresnel_ior > 1.0:
@@ -274,9 +297,121 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0
     output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
+    output.target = "ALL"
     b.link(emission.outputs[0], output.inputs["Surface"])
+    _finish(tree, user_nodes, output, spatial.get("normal"))
     material["glossy_lookup_version"] = GROUP_VERSION
     return material
+
+
+#: Custom property on every node Glossy adds to a material (re-attach and
+#: strip_lookup remove exactly these).
+TAG = "glossy_lookup"
+#: Material property: the name of the user's Material Output Glossy made inactive.
+USER_OUTPUT = "glossy_user_output"
+
+
+def is_lookup_node(node) -> bool:
+    return bool(node.get(TAG))
+
+
+def _user_output(tree):
+    """The user's Material Output: the active one, else the first (None if none)."""
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+               and not is_lookup_node(n)]
+    active = [n for n in outputs if n.is_active_output]
+    return (active or outputs or [None])[0]
+
+
+def user_output(material):
+    """The Material Output of the user's own nodes in ``material`` (the one that
+    was active before Glossy attached), or None."""
+    if not material.use_nodes or material.node_tree is None:
+        return None
+    tree = material.node_tree
+    name = material.get(USER_OUTPUT)
+    node = tree.nodes.get(name) if name else None
+    if node is not None and not is_lookup_node(node):
+        return node
+    return _user_output(tree)
+
+
+def _remove_lookup(tree):
+    """Remove Glossy's nodes and the drivers on them (the lamp terms') from ``tree``."""
+    names = {node.name for node in tree.nodes if is_lookup_node(node)}
+    data = tree.animation_data
+    if data is not None:
+        for curve in list(data.drivers):
+            path = curve.data_path
+            if path.startswith('nodes["') and path[7:path.find('"]')] in names:
+                data.drivers.remove(curve)
+    for node in [n for n in tree.nodes if n.name in names]:
+        tree.nodes.remove(node)
+
+
+def strip_lookup(material) -> bool:
+    """Remove Glossy's lookup from ``material`` and make the user's Material Output
+    active again; True if the material still has an output of its own."""
+    if not material.use_nodes or material.node_tree is None:
+        return False
+    output = user_output(material)
+    _remove_lookup(material.node_tree)
+    if USER_OUTPUT in material:
+        del material[USER_OUTPUT]
+    if output is None:
+        return False
+    output.is_active_output = True
+    return True
+
+
+def _finish(tree, user_nodes, output, normal=None):
+    """Tag the nodes added since ``user_nodes``, move them right of the user's,
+    make ``output`` the active one and feed ``normal`` (a socket of the user's
+    nodes) to every lookup in place of the geometric normal."""
+    added = [node for node in tree.nodes if node.name not in user_nodes]
+    right = max((node.location.x + node.width for node in tree.nodes
+                 if node.name in user_nodes), default=-400.0) + 400.0
+    for node in added:
+        node[TAG] = True
+        node.location = (node.location.x + right, node.location.y - 600.0)
+    output.is_active_output = True
+    if normal is not None:
+        for link in list(tree.links):
+            if is_lookup_node(link.from_node) and \
+                    link.from_node.bl_idname == "ShaderNodeNewGeometry" and \
+                    link.from_socket.name == "Normal":
+                tree.links.new(normal, link.to_socket)
+
+
+def _factor(b, socket, mean):
+    """socket / mean per channel (a colour applied per pixel to a part baked at mean)."""
+    return b.vec("DIVIDE", socket, b.combine(*(float(max(c, 1e-6)) for c in mean)))
+
+
+def _roughness_blend(b, roughness, maps):
+    """The environment lookups of maps baked at ascending roughnesses, blended per
+    pixel by the ``roughness`` socket (clamped to their range): between knots
+    r0 < r1, the geometric blend L0^(1 - t) L1^t per channel with t linear in
+    log r (glossy_addon.spatial: three times closer to a map baked at r than a
+    linear blend where a bright light's peak grows as the lobe narrows)."""
+    values = [_environment(b, image, meta) for _, image, meta in maps]
+    knots = [float(r) for r, _, _ in maps]
+    r = b.math("MINIMUM", b.math("MAXIMUM", roughness, knots[0]), knots[-1])
+    log_r = b.math("LOGARITHM", r, math.e)
+    value = values[0]
+    for k in range(1, len(knots)):
+        t = b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", b.math(
+            "SUBTRACT", log_r, math.log(knots[k - 1])), math.log(knots[k] / knots[k - 1])),
+            0.0), 1.0)
+        keep = b.math("SUBTRACT", 1.0, t)
+        value = b.vec("MULTIPLY", b.vec("POWER", b.vec("MAXIMUM", value, b.combine(
+            *(GEOMETRIC_FLOOR,) * 3)), b.combine(keep, keep, keep)), b.vec("POWER", b.vec(
+                "MAXIMUM", values[k], b.combine(*(GEOMETRIC_FLOOR,) * 3)), b.combine(t, t, t)))
+    return value
+
+
+#: Radiance below this is taken as this in the geometric roughness blend (log of 0).
+GEOMETRIC_FLOOR = 1e-6
 
 
 def _add(b, a, c):

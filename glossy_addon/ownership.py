@@ -72,8 +72,9 @@ def _object_records(obj):
 
 def _material_records(material):
     settings = material.glossy
-    return [settings.bake_path, settings.diffuse_path, settings.lamp_path] + \
-        history(settings, "bake_history")
+    return [settings.bake_path, settings.diffuse_path, settings.lamp_path,
+            settings.runtime_path] + \
+        [p for _, p in settings.roughness_map_list()] + history(settings, "bake_history")
 
 
 def holders(path) -> list:
@@ -84,8 +85,7 @@ def holders(path) -> list:
         if resolved(obj.glossy.probe_path) == path:
             found.append(obj)
     for material in bpy.data.materials:
-        if path in (resolved(material.glossy.bake_path), resolved(material.glossy.diffuse_path),
-                    resolved(material.glossy.lamp_path)):
+        if path in _current(material):
             found.append(material)
     return found
 
@@ -127,7 +127,8 @@ def _current(data) -> list:
     if isinstance(data, bpy.types.Object):
         return [resolved(settings.probe_path)]
     return [resolved(settings.bake_path), resolved(settings.diffuse_path),
-            resolved(settings.lamp_path)]
+            resolved(settings.lamp_path), resolved(settings.runtime_path)] + \
+        [resolved(p) for _, p in settings.roughness_map_list()]
 
 
 def used_by_other_owner(path, data) -> str | None:
@@ -212,6 +213,35 @@ def material_users(material) -> list:
     """Mesh objects with ``material`` in one of their slots."""
     return [obj for obj in bpy.data.objects if obj.type == "MESH" and
             any(slot.material == material for slot in obj.material_slots)]
+
+
+def object_copy(material, obj):
+    """Give ``obj`` its own copy of ``material`` (``<material> (<obj>)``, Glossy
+    settings and user nodes copied, ``copy_of`` naming the source) in every slot
+    of ``obj`` that holds ``material``; a slot linked to mesh data that other
+    objects share is switched to an object link, so their slots stay as they
+    were. Returns the copy."""
+    copy = material.copy()
+    copy.name = f"{material.name} ({obj.name})"
+    copy.use_fake_user = False
+    copy.glossy.copy_of = material.glossy.copy_of or material.name
+    shared_mesh = obj.data.users > 1
+    for slot in obj.material_slots:
+        if slot.material != material:
+            continue
+        if slot.link == "DATA" and shared_mesh:
+            slot.link = "OBJECT"
+        slot.material = copy
+    return copy
+
+
+def needs_own_copy(material, obj) -> bool:
+    """True when baking ``obj``'s probe into ``material`` would change the look of
+    another object: the material is also used by objects with probes of their
+    own that differ from ``obj``'s, and its current bake is not ``obj``'s (a
+    bake made for ``obj`` stays; the others take copies when they bake)."""
+    return bool(shared_probe_users(material, obj)) and \
+        material.glossy.bake_object != obj.name
 
 
 def shared_probe_users(material, obj) -> list:

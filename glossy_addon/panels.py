@@ -241,14 +241,18 @@ class GLOSSY_PT_material(bpy.types.Panel):
         obj = context.object
         probe = obj.glossy.probe_path if obj is not None else ""
         layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
+        if settings.copy_of:
+            _reason(layout, f"Glossy's copy of '{settings.copy_of}' for "
+                            f"{settings.bake_object or 'this object'}: it reflects that "
+                            f"object's own probe", icon="DUPLICATE")
         if obj is not None and settings.bake_object and settings.bake_object != obj.name:
-            _reason(layout, f"Shows {settings.bake_object}'s bake: this material is shared, "
-                            f"and one material holds one bake", icon="ERROR")
+            _reason(layout, f"Shows {settings.bake_object}'s bake: Bake Materials gives "
+                            f"{obj.name} its own copy of this material", icon="ERROR")
         elif obj is not None:
             others = ownership.shared_probe_users(context.material, obj)
             if others:
-                _reason(layout, f"Shared with {', '.join(others)} (other probes): the last "
-                                f"bake shows on all of them", icon="ERROR")
+                _reason(layout, f"Shared with {', '.join(others)} (other probes): each object "
+                                f"that bakes gets its own copy", icon="INFO")
         if settings.size_reason:
             _reason(layout, f"Baked at {settings.size_reason}", icon="TEXTURE")
         _draw_lamps(layout, context.material, context.scene)

@@ -257,6 +257,12 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     size_reason: bpy.props.StringProperty(
         name="Size Reason", description="Why the last bake has the size it has")
     bake_path: bpy.props.StringProperty(name="Baked Map", subtype="FILE_PATH")
+    copy_of: bpy.props.StringProperty(
+        name="Copy Of", description="The material this one is Glossy's per-object copy of "
+        "(a material shared by objects with different probes: each reflects its own)")
+    roughness_maps: bpy.props.StringProperty(
+        name="Roughness Maps", description="Maps baked at roughness knots for a roughness "
+        "texture (From Material, JSON [[roughness, path], ...]): blended per pixel")
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_owner: bpy.props.StringProperty(
@@ -365,6 +371,15 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
 
             return parts(self.id_data).diffuse
         return tuple(float(c) for c in self.diffuse)
+
+    def roughness_map_list(self) -> list:
+        """[(roughness, path), ...] of a roughness-blend bake (empty: none)."""
+        import json
+
+        try:
+            return [(float(r), str(p)) for r, p in json.loads(self.roughness_maps or "[]")]
+        except (ValueError, TypeError):
+            return []
 
     def tangent(self) -> tuple:
         """("RADIAL", axis) or ("UV_MAP", name): the Tangent node's settings."""

@@ -24,14 +24,14 @@ def main(root, blend, name) -> dict:
     import glossy
 
     glossy.register()  # Material.glossy: the kept original of an attached material
+    from glossy.glossy_addon.material_source import source_material
     from glossy.glossy_addon.node_reader import NodeReadError, read_material
 
     material = bpy.data.materials.get(name)
     if material is None:
         names = ", ".join(sorted(m.name for m in bpy.data.materials)) or "none"
         return {"error": f"{blend} has no material {name!r} (it has: {names})"}
-    if material.glossy.original is not None:  # Glossy's lookup replaced the nodes
-        material = material.glossy.original
+    material = source_material(material)  # the user's nodes (or the kept original)
     try:
         found = read_material(material)
     except NodeReadError as error:

@@ -32,10 +32,12 @@ def truth_material(material, tangent=None):
     settings = material.glossy
     if settings.model == "MATERIAL":  # the user's own material is the truth
         from .material_source import source_material
+        from .nodes import strip_lookup
 
         truth = source_material(material).copy()
         truth.name = f"{material.name} (Glossy truth)"
         truth.use_fake_user = False
+        strip_lookup(truth)
         if truth.glossy.original is not None:
             truth.glossy.original = None
         return truth, None

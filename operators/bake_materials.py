@@ -19,6 +19,7 @@ from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
+from ..glossy_addon.spatial import input_socket, lookup_sockets
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -48,7 +49,8 @@ def _factor_steps(settings):
 
 
 def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,
-                probe_path, obj_name, reason, rows=0, runtime_path=None, runtime=None):
+                probe_path, obj_name, reason, rows=0, runtime_path=None, runtime=None,
+                knots=()):
     """Write one material's files together (all or none, each whole) and record
     them in its settings; a generator (it yields nothing) so that steps can
     ``yield from`` it. ``runtime``: the (image, meta) of a Hybrid's second
@@ -58,7 +60,9 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
     stamp_meta = {"generator": "glossy-blender", "probe": probe_path, "material": material.name}
     written = []
     with outputs.Staged() as staged:
-        for target_path, texture in ((path, environment), (runtime_path, runtime)):
+        textures = [(path, environment), (runtime_path, runtime)] + \
+            [(knot_path, texture) for _, knot_path, texture in knots if knot_path != path]
+        for target_path, texture in textures:
             if texture is None:
                 continue
             image, atlas_meta = texture
@@ -83,6 +87,7 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
             written.append(lamp_path)
     settings.bake_path = str(path) if environment is not None else ""
     settings.runtime_path = str(runtime_path) if runtime is not None else ""
+    settings.roughness_maps = json.dumps([[r, str(p)] for r, p, _ in knots]) if knots else ""
     settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
     settings.lamp_path = str(lamp_path) if factors is not None else ""
     settings.lamp_error = separable.error(factors, settings.brdf_spec()) \
@@ -192,8 +197,15 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         self._warnings = []
         lamp_objects = scene_lamps(context.scene)[0]
         for material in _materials(obj):
-            settings = material.glossy
             check_settings(material)
+            if ownership.needs_own_copy(material, obj):
+                others = ownership.shared_probe_users(material, obj)
+                material = ownership.object_copy(material, obj)
+                self._warnings.append(
+                    f"{material.glossy.copy_of} is shared with {', '.join(others)}, whose "
+                    f"probe differs: {obj.name} now has its own copy '{material.name}', so "
+                    f"each object reflects its own probe")
+            settings = material.glossy
             wants_lamps = settings.lamps and bool(lamp_objects)
             if bake_status(settings, probe_path) == "up to date" and \
                     (settings.lamp_path or not wants_lamps):
@@ -204,6 +216,21 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             diffuse_path = lamp_path = None
             runtime_path = None
             isotropic = brdf.parse(settings.brdf_spec()).isotropic
+            knot_paths = []
+            if settings.model == "MATERIAL" and isotropic:
+                knots = material_parts(material).roughness_set
+                if knots and settings.method in ("3d", "2d", "hybrid"):
+                    for index, (roughness, _) in enumerate(knots):
+                        knot_path = ownership.claim(folder, stem,
+                                                    f"_{settings.method}_r{index}.exr",
+                                                    material, taken)
+                        taken.add(knot_path)
+                        knot_paths.append((roughness, knot_path))
+                elif knots:
+                    self._warnings.append(
+                        f"{material.name}: the roughness texture is taken at its mean with the "
+                        f"{settings.method} method (the 3D map, 2D map and Hybrid blend maps "
+                        f"baked at several roughnesses)")
             if settings.method == "hybrid" and isotropic:
                 runtime_path = ownership.claim(folder, stem, "_hybrid_runtime.exr", material,
                                                taken)
@@ -229,18 +256,13 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     f"{material.name}: anisotropic BRDF: lamps only (the {settings.method} map "
                     f"needs an isotropic BRDF; Runtime Sampling and Hybrid reflect the "
                     f"environment), the environment reflection is left out")
-            others = ownership.shared_probe_users(material, obj)
-            if others:
-                self._warnings.append(
-                    f"{material.name} is also used by {', '.join(others)}, whose probe differs: "
-                    f"one material holds one bake, so all its users now show {obj.name}'s "
-                    f"(give each object its own copy of the material)")
-            todo.append((material.name, path, diffuse_path, lamp_path, runtime_path))
+            todo.append((material.name, path, diffuse_path, lamp_path, runtime_path,
+                         knot_paths))
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
     def _bake_steps(material, path, diffuse_path, lamp_path, probe, meta, probe_path,
-                    obj_name, runtime_path=None):
+                    obj_name, runtime_path=None, knot_paths=()):
         """One material's bake as steps: yields (fraction, message) after the fit, each
         batch of slices and the diffuse map; writes the files only at the end, both
         or neither, so a bake stopped between steps leaves nothing. Returns the step's
@@ -260,6 +282,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                                            probe_path, obj_name,
                                            "no environment map (anisotropic BRDF)"))
         layout = meta.get("layout", "cube")
+        knots, sizes = [], []
         auto = settings.size_mode == "AUTO"
         size = "auto" if auto else settings.map_size
         max_size = settings.map_size if auto else None
@@ -279,14 +302,33 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             image, atlas_meta = atlas.pack_split_sum(baked)
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
-            baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
-                probe, spec, "3d" if settings.method == "hybrid" else settings.method, size,
-                slices=settings.slices,
-                lobes_count=settings.lobes if settings.method in ("3d", "hybrid") else 1,
-                layout=layout,
-                max_size=max_size)), 0.1, 0.85)
-            image, atlas_meta = atlas.pack(baked)
-            rows, reason = baked.meta["size"], baked.meta["size_reason"]
+            knot_specs = dict(material_parts(material).roughness_set) if knot_paths else {}
+            jobs = [(r, knot_path, knot_specs[r]) for r, knot_path in knot_paths] or \
+                [(None, path, spec)]
+            start = 0.3 if runtime is not None else 0.1
+            for index, (roughness, job_path, job_spec) in enumerate(jobs):
+                baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
+                    probe, job_spec, "3d" if settings.method == "hybrid" else settings.method,
+                    size, slices=settings.slices,
+                    lobes_count=settings.lobes if settings.method in ("3d", "hybrid") else 1,
+                    layout=layout, max_size=max_size)),
+                    start + (0.85 - start) * index / len(jobs),
+                    start + (0.85 - start) * (index + 1) / len(jobs))
+                if roughness is not None:
+                    knots.append((roughness, job_path, atlas.pack(baked)))
+                    sizes.append(baked.meta["size"])
+                else:
+                    image, atlas_meta = atlas.pack(baked)
+                    rows, reason = baked.meta["size"], baked.meta["size_reason"]
+            if knots:
+                mean = float(brdf.parse(spec).params.get("roughness", knots[0][0]))
+                nearest = min(knots, key=lambda knot: abs(knot[0] - mean))
+                path, (image, atlas_meta) = nearest[1], nearest[2]
+                rows = max(sizes)
+                reason = (f"{len(knots)} maps at roughness "
+                          f"{', '.join(f'{r:.3g}' for r, _, _ in knots)} for the roughness "
+                          f"texture, {min(sizes)}-{max(sizes)} rows "
+                          f"({baked.meta['size_reason'].split(':')[-1].strip()})")
             if runtime is not None:
                 reason += f"; {runtime_reason}"
         diffuse = None
@@ -299,18 +341,18 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return (yield from _write_bake(material, path, (image, atlas_meta), diffuse,
                                        diffuse_path if diffuse is not None else None,
                                        lamp_path, factors, probe_path, obj_name, reason,
-                                       int(rows), runtime_path, runtime))
+                                       int(rows), runtime_path, runtime, knots))
 
     def execute(self, context):
         try:
             obj, probe, meta, probe_path, todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                for index, (name, path, diffuse_path, lamp_path, runtime_path) in \
+                for index, (name, path, diffuse_path, lamp_path, runtime_path, knot_paths) in \
                         enumerate(todo):
                     progress(index / max(len(todo), 1), f"baking {name}")
                     run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
                                                lamp_path, probe, meta, probe_path, obj.name,
-                                               runtime_path),
+                                               runtime_path, knot_paths),
                               scaled(progress, index / len(todo), (index + 1) / len(todo)))
                     progress((index + 1) / len(todo), f"baked {name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
@@ -333,10 +375,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         return todo
 
     def _run_step(self, context, step):
-        name, path, diffuse_path, lamp_path, runtime_path = step
+        name, path, diffuse_path, lamp_path, runtime_path, knot_paths = step
         steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
                                  self._probe, self._meta, self._probe_path, self._object_name,
-                                 runtime_path)
+                                 runtime_path, knot_paths)
         return prefixed_steps(f"{name}: ", steps)
 
     def _done_message(self):
@@ -398,11 +440,28 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     lamp_terms = (load_atlas(settings.lamp_path, precision="float32"), lamp_meta,
                                   lamps, settings.diffuse_colour())
                 stash_original(material)
-                weighting = material_parts(material).weighting
+                found = material_parts(material)
+                weighting = found.weighting
+                spatial = lookup_sockets(material, found.derived.spatial) \
+                    if found.derived is not None else {}
+                roughness_maps = None
+                knots = settings.roughness_map_list()
+                roughness_socket = input_socket(material, **{
+                    k: found.derived.spatial["roughness"][k] for k in ("node", "input")}) \
+                    if knots and "roughness" in found.derived.spatial else None
+                if knots and roughness_socket is not None and image is not None:
+                    maps = []
+                    for roughness, knot_path in knots:
+                        _, knot_meta = exr.read(knot_path)
+                        maps.append((roughness, load_atlas(
+                            knot_path, precision=knot_meta.get("precision", "float32")),
+                            knot_meta))
+                    roughness_maps = (roughness_socket, maps)
                 build_lookup(material, image, meta, diffuse,
                              weighting[1] if weighting[0] == "fresnel" else 0.0, lamp_terms,
                              runtime=runtime, tangent=tangent,
-                             diffuse_curve=weighting[1:] if weighting[0] == "curve" else None)
+                             diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
+                             spatial=spatial, roughness_maps=roughness_maps)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1

@@ -82,12 +82,15 @@ class GLOSSY_OT_clear(bpy.types.Operator):
 
     def _clear_material(self, name):
         material = bpy.data.materials[name]
-        if self.lookups and material.glossy.original is not None:
-            material = restore_original(material)
-            self._counts["restored"] += 1
+        if self.lookups:
+            restored = restore_original(material)
+            if restored is not None:
+                material = restored
+                self._counts["restored"] += 1
         if self.bakes:
             glossy = material.glossy
             glossy.bake_path = glossy.diffuse_path = glossy.lamp_path = glossy.bake_hash = ""
+            glossy.roughness_maps = glossy.runtime_path = ""
             glossy.lamp_set = glossy.lamp_skipped = ""
             glossy.lamp_error = -1.0
             glossy.bake_owner = glossy.bake_probe = glossy.bake_object = ""

@@ -26,8 +26,11 @@ def test_the_spec_is_read_from_the_nodes_and_split_for_the_bake(result):
     # (at normal incidence 1 - E_spec ~ 0.96 for IOR 1.5, roughness 0.35).
     for got, base in zip(result["diffuse"], (0.2, 0.4, 0.8), strict=True):
         assert 0.9 * base < got < base
-    assert result["spec_after_attach"] == result["spec"]  # read from the kept original
+    assert result["spec_after_attach"] == result["spec"]  # read from the user's nodes
     assert result["curve_nodes"] == 1
+    # The attach keeps the user's nodes (inactive output) beside Glossy's (active).
+    assert result["user_nodes_kept"] == ["ShaderNodeBsdfPrincipled", "ShaderNodeOutputMaterial"]
+    assert result["active_output_is_glossy"]
 
 
 def test_bake_attach_and_validate_beat_native_eevee(result):

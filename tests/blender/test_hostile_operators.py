@@ -44,7 +44,8 @@ def test_copies_of_a_captured_object_never_use_or_delete_the_original_s_files(re
     assert r["capture_copy"][0] == ["FINISHED"] and r["copy_own_probe"] == "Ball_001_probe.exr"
     assert r["original_probe_unchanged"]
     assert r["bake_copy_after_capture"][0] == ["FINISHED"]
-    assert "Shiny is also used by Ball, whose probe differs" in r["bake_copy_after_capture"][1]
+    assert "Shiny is shared with Ball, whose probe differs: Ball.001 now has its own copy " \
+        "'Shiny (Ball.001)'" in r["bake_copy_after_capture"][1]
 
 
 def test_names_that_clean_alike_get_files_of_their_own(result):
@@ -56,17 +57,21 @@ def test_names_that_clean_alike_get_files_of_their_own(result):
     assert "2 file(s) deleted" in r["clear"][1] and r["left"] == [False, False]
 
 
-def test_a_material_shared_by_objects_with_their_own_probes_is_said_and_cleared_whole(result):
+def test_a_material_shared_by_objects_with_their_own_probes_gets_a_copy_per_object(result):
     r = result["shared_material"]
-    assert "Shared is also used by B, whose probe differs" in r["bake_a"][1]
-    assert "Shared is also used by A, whose probe differs" in r["bake_b"][1]
-    assert r["baked_for"] == "B" and r["bakes_exist"] == [True, True]
-    # Clearing A leaves the material, which shows B's bake, alone...
-    assert "left alone: Shared (it shows B's bake" in r["clear_a"][1]
-    assert r["after_a"] == {"b_bake": True, "material_path": True, "b_probe": True}
-    # ...and clearing B removes its probe and both bakes (A's earlier one too): no orphan.
-    assert "3 file(s) deleted" in r["clear_b"][1]
-    assert r["after_b"] == [False, False, ""] and r["files"] == []
+    assert "Shared is shared with B, whose probe differs: A now has its own copy " \
+        "'Shared (A)'" in r["bake_a"][1]
+    assert "own copy" not in r["bake_b"][1]  # B is the material's only user by then
+    assert r["materials"] == {"A": "Shared (A)", "B": "Shared"}
+    assert r["baked_for"] == {"Shared (A)": "A", "Shared": "B"}
+    assert r["copy_of"] == {"Shared (A)": "Shared", "Shared": ""}
+    assert r["bakes_exist"] == [True, True, True]
+    # Clearing A removes its probe and its copy's bake, and leaves B's alone...
+    assert "2 file(s) deleted" in r["clear_a"][1]
+    assert r["after_a"] == {"a_bake": False, "b_bake": True, "b_path": True, "b_probe": True}
+    # ...and clearing B removes the rest: no orphan.
+    assert "2 file(s) deleted" in r["clear_b"][1]
+    assert r["after_b"] == [False, ""] and r["files"] == []
 
 
 def test_clear_in_a_read_only_folder_changes_nothing(result):

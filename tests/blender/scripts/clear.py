@@ -51,7 +51,11 @@ bpy.ops.glossy.bake_materials()
 bpy.ops.glossy.attach_materials()
 settings = bpy.data.materials["Paint"].glossy
 written = [sphere.glossy.probe_path, settings.bake_path, settings.diffuse_path]
-report["attached_nodes_have_mine"] = "Mine" in bpy.data.materials["Paint"].node_tree.nodes
+attached_tree = bpy.data.materials["Paint"].node_tree
+report["attached_nodes_have_mine"] = "Mine" in attached_tree.nodes
+report["attached_lookup_active"] = bool(attached_tree.get_output_node("ALL").get("glossy_lookup"))
+# The user edits their own node in the attached material: Clear must keep the edit.
+attached_tree.nodes["Mine"].inputs["Base Color"].default_value = (0.7, 0.2, 0.1, 1.0)
 report["stash"] = settings.original.name if settings.original else None
 bpy.ops.glossy.attach_materials()  # a second attach keeps the first stash
 report["stashes_after_reattach"] = sorted(m.name for m in bpy.data.materials)
@@ -71,6 +75,8 @@ report["after"] = {
     "materials": sorted(m.name for m in bpy.data.materials),
     "slots_are_paint": [obj.material_slots[0].material == paint for obj in (sphere, cube)],
     "has_mine": "Mine" in paint.node_tree.nodes,
+    "lookup_nodes": sum(bool(n.get("glossy_lookup")) for n in paint.node_tree.nodes),
+    "user_output_active": paint.node_tree.get_output_node("ALL").name,
     "base_color": list(paint.node_tree.nodes["Mine"].inputs["Base Color"].default_value),
     "settings_kept": [paint.glossy.roughness, list(paint.glossy.diffuse)],
     "status": bake_status(paint.glossy, sphere.glossy.probe_path),

@@ -6,7 +6,7 @@ A sphere with a user's Principled plastic (MULTI_GGX, the node's default) and
 an Emission shader mixed in at 0 (a listed, ignored input) is captured (World
 Only), baked and attached with the BRDF read from its node tree, then
 validated (Cycles renders the user's own material). Then: editing the
-original's Roughness makes the bake stale and names the input, editing the
+user's Roughness (the user's nodes stay in the attached material) makes the bake stale and names the input, editing the
 ignored emission does not; an emission-only material and one behind a node
 group are refused with a message and keep their nodes; ``python -m bake brdf
 --from-blend`` prints the same spec.
@@ -79,13 +79,16 @@ result["attach"] = run(bpy.ops.glossy.attach_materials)
 result["status_after_bake"] = bake_status(material.glossy, sphere.glossy.probe_path)
 result["curve_nodes"] = sum(n.bl_idname == "ShaderNodeRGBCurve"
                             for n in material.node_tree.nodes)
-result["spec_after_attach"] = derive(material).spec  # read from the kept original
+result["spec_after_attach"] = derive(material).spec  # read from the user's kept nodes
+result["user_nodes_kept"] = sorted(n.bl_idname for n in material.node_tree.nodes
+                                   if not n.get("glossy_lookup"))
+result["active_output_is_glossy"] = bool(
+    material.node_tree.get_output_node("ALL").get("glossy_lookup"))
 result["validate"] = run(bpy.ops.glossy.validate)
 report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
 result["report"] = report
 
-original = material.glossy.original
-node = original.node_tree.nodes["Principled BSDF"]
+node = material.node_tree.nodes["Principled BSDF"]  # the user's node, beside the lookup
 node.inputs["Emission Strength"].default_value = 2.0  # ignored (emission): not stale
 result["status_after_ignored_edit"] = bake_status(material.glossy, sphere.glossy.probe_path)
 result["ignored_after_edit"] = derive(material).ignored

@@ -175,27 +175,30 @@ def similar_names():
 
 @case
 def shared_material():
-    """One material on two objects with probes of their own."""
+    """One material on two objects with probes of their own: each object that bakes
+    gets its own copy, so each reflects its own probe."""
     material = shiny("Shared")
     a, b = ball("A", 0.0, material), ball("B", 3.0, material)
     select_only(a, b)
     call(bpy.ops.glossy.capture_probes)
     select_only(a)
     out = {"bake_a": call(bpy.ops.glossy.bake_materials)}
-    a_bake = material.glossy.bake_path
     select_only(b)
     out["bake_b"] = call(bpy.ops.glossy.bake_materials)
-    b_bake = material.glossy.bake_path
-    out["baked_for"] = material.glossy.bake_object
-    out["bakes_exist"] = [Path(a_bake).exists(), Path(b_bake).exists()]
+    mats = {obj.name: obj.material_slots[0].material for obj in (a, b)}
+    out["materials"] = {name: m.name for name, m in mats.items()}
+    out["baked_for"] = {m.name: m.glossy.bake_object for m in mats.values()}
+    out["copy_of"] = {m.name: m.glossy.copy_of for m in mats.values()}
+    a_bake, b_bake = mats["A"].glossy.bake_path, mats["B"].glossy.bake_path
+    out["bakes_exist"] = [Path(a_bake).exists(), Path(b_bake).exists(), a_bake != b_bake]
     select_only(a)
     out["clear_a"] = call(bpy.ops.glossy.clear)
-    out["after_a"] = {"b_bake": Path(b_bake).exists(), "material_path":
-                      material.glossy.bake_path == b_bake,
+    out["after_a"] = {"a_bake": Path(a_bake).exists(), "b_bake": Path(b_bake).exists(),
+                      "b_path": mats["B"].glossy.bake_path == b_bake,
                       "b_probe": Path(b.glossy.probe_path).exists()}
     select_only(b)
     out["clear_b"] = call(bpy.ops.glossy.clear)
-    out["after_b"] = [Path(a_bake).exists(), Path(b_bake).exists(), material.glossy.bake_path]
+    out["after_b"] = [Path(b_bake).exists(), mats["B"].glossy.bake_path]
     out["files"] = [f for f in files() if f.startswith(("A_", "B_"))]
     return out
 

@@ -1,0 +1,92 @@
+"""What a From Material lookup applies per pixel, from the user's own nodes.
+
+The node reader (glossy_addon.node_reader) bakes a material at one value of
+each input; where the surface is a single Principled, Glossy or Diffuse BSDF
+it also records (Derived.spatial) the inputs the attached lookup takes per
+pixel from the user's nodes, which stay in the attached material untouched:
+
+- its colour (Base Color / Color) driven by a texture or any node chain, as a
+  factor ``colour(x) / baked mean`` of the part that is linear in it: the
+  diffuse part of a dielectric Principled or a Diffuse BSDF (exact: Cycles'
+  diffuse weight does not depend on the base colour), the glossy part of a
+  Glossy BSDF (exact except Multiscatter GGX's energy term) or of a metallic
+  (Metallic = 1) Principled (approximate: the F82 Fresnel is affine in the
+  base colour, and toward grazing it goes to the edge tint, not to the
+  scaled colour). A partly metallic or metallic-textured surface keeps the
+  mean (listed as approximated);
+- its Normal input (a Normal Map or Bump node): the normal of every lookup
+  (environment, diffuse, view weight, runtime sampling, lamps);
+- its Roughness from an image: the map is baked at roughness knots spaced
+  geometrically from the image's 1st to its 99th percentile and the lookups
+  are blended per pixel by tent weights of the user's roughness value
+  (:func:`roughness_knots`).
+"""
+
+import math
+import re
+
+#: Neighbouring roughness knots differ by at most this factor: blending two maps
+#: linearly in roughness then stays within 2% relative RMS of a map baked at the
+#: pixel's own roughness on every bundled HDRI, roughness 0.1 and up
+#: (benchmarks/roughness_blend.py prints the curve; the error depends on the
+#: ratio of neighbouring roughnesses, not on their difference).
+ROUGHNESS_RATIO = 1.25
+#: A texture spanning less than this ratio is baked at its mean alone.
+ROUGHNESS_SPREAD = 1.05
+#: At most this many maps (each a lookup in the shader).
+MAX_KNOTS = 8
+#: Roughness knots start no lower than this (Cycles' mirror threshold).
+MIN_ROUGHNESS = 0.01
+
+_ROUGHNESS = re.compile(r"(?<![a-z_])roughness=([0-9.eE+-]+)")
+
+
+def roughness_knots(low: float, high: float) -> list:
+    """Ascending roughness knots spanning [low, high] with neighbouring ratios at
+    most ROUGHNESS_RATIO (geometric spacing), at most MAX_KNOTS of them; [] when
+    the range is narrower than ROUGHNESS_SPREAD (one map at the mean is enough)."""
+    low = max(float(low), MIN_ROUGHNESS)
+    high = max(float(high), low)
+    if high / low < ROUGHNESS_SPREAD:
+        return []
+    count = min(max(2, math.ceil(math.log(high / low) / math.log(ROUGHNESS_RATIO)) + 1),
+                MAX_KNOTS)
+    return [low * (high / low) ** (k / (count - 1)) for k in range(count)]
+
+
+def with_roughness(spec: str, roughness: float) -> str:
+    """``spec`` with its (single) BSDF's roughness replaced (coat roughness kept)."""
+    found = _ROUGHNESS.findall(spec)
+    if len(found) != 1:
+        raise ValueError(f"expected one roughness in {spec}, found {len(found)}")
+    return _ROUGHNESS.sub(f"roughness={roughness:.6g}", spec)
+
+
+def input_socket(material, node_name: str, input_name: str):
+    """The output socket feeding input ``input_name`` of node ``node_name`` in
+    ``material`` (the user's node, kept beside the lookup), or None."""
+    tree = material.node_tree if material.use_nodes else None
+    node = tree.nodes.get(node_name) if tree is not None else None
+    socket = node.inputs.get(input_name) if node is not None else None
+    if socket is None or not socket.is_linked:
+        return None
+    link = socket.links[0]
+    return link.from_socket if link.is_valid and not link.is_muted else None
+
+
+def lookup_sockets(material, spatial: dict) -> dict:
+    """build_lookup's ``spatial`` for ``material``: {"normal": socket} and
+    {part: (colour socket, mean)} for the inputs recorded in Derived.spatial
+    whose links still exist in ``material``."""
+    out = {}
+    normal = spatial.get("normal")
+    if normal:
+        socket = input_socket(material, normal["node"], normal["input"])
+        if socket is not None:
+            out["normal"] = socket
+    colour = spatial.get("colour")
+    if colour:
+        socket = input_socket(material, colour["node"], colour["input"])
+        if socket is not None:
+            out[colour["part"]] = (socket, colour["mean"])
+    return out
