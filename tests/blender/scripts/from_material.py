@@ -6,8 +6,8 @@ A sphere with a user's Principled plastic (MULTI_GGX, the node's default) and
 an Emission shader mixed in at 0 (a listed, ignored input) is captured (World
 Only), baked and attached with the BRDF read from its node tree, then
 validated (Cycles renders the user's own material). Then: editing the
-user's Roughness (the user's nodes stay in the attached material) makes the bake stale and names the input, editing the
-ignored emission does not; an emission-only material and one behind a node
+user's Roughness (the user's nodes stay in the attached material) makes the
+bake stale and names the input, editing the ignored emission does not; an emission-only material and one behind a node
 group are refused with a message and keep their nodes; ``python -m bake brdf
 --from-blend`` prints the same spec.
 """
