@@ -8,8 +8,9 @@ Only), baked and attached with the BRDF read from its node tree, then
 validated (Cycles renders the user's own material). Then: editing the
 user's Roughness (the user's nodes stay in the attached material) makes the
 bake stale and names the input, editing the ignored emission does not; an
-emission-only material and one behind a node group are refused with a message and keep their nodes; ``python -m bake brdf
---from-blend`` prints the same spec.
+emission-only material and one behind a node group are refused with a
+message and keep their nodes; ``python -m bake brdf --from-blend`` prints
+the same spec.
 """
 
 import json
