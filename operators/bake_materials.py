@@ -446,9 +446,10 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     if found.derived is not None else {}
                 roughness_maps = None
                 knots = settings.roughness_map_list()
-                roughness_socket = input_socket(material, **{
-                    k: found.derived.spatial["roughness"][k] for k in ("node", "input")}) \
-                    if knots and "roughness" in found.derived.spatial else None
+                texture = found.derived.spatial.get("roughness") \
+                    if found.derived is not None else None
+                roughness_socket = input_socket(material, texture["node"], texture["input"]) \
+                    if knots and texture else None
                 if knots and roughness_socket is not None and image is not None:
                     maps = []
                     for roughness, knot_path in knots:
