@@ -1,15 +1,18 @@
-"""The curve behind the roughness-texture blend's count: how far apart in
-roughness can two baked maps be before blending them linearly per pixel
-costs accuracy?
+"""The curve behind the roughness-texture blend's knot spacing: how far apart
+in roughness can two baked maps be before blending them per pixel costs
+accuracy?
 
-For every bundled HDRI (cube faces of --faces texels) and a Principled-like
-GGX lobe, renders an isolated sphere (orthographic, --pixels across) with the
-brute-force integral (bake.reference) at roughness r, and compares it with
-the linear blend of the renders at r - step/2 and r + step/2 (what the
-attached material does between two baked roughnesses, per pixel), for each
-step; prints the relative RMS luminance error of the blend, worst over the
-midpoints r in [0.1, 0.8]. glossy_addon.roughness_blend.ROUGHNESS_STEP is
-the largest step whose worst error stays under 2% on every HDRI.
+For every bundled HDRI (cube faces of --faces texels, over their bilinear
+reconstruction 3x finer) and a GGX lobe, renders an isolated sphere
+(orthographic, --pixels across) with the brute-force integral
+(bake.reference) at roughness r, and compares it with the blend of the
+renders at knots low < r < high = ratio * low (what the attached material
+does between two baked roughnesses, per pixel): weights linear in r, in
+r^2, or geometric (R0^(1-w) R1^w, w linear in log r), at r a quarter, half
+and three quarters of the way. Prints the relative RMS luminance error of
+each blend, worst over low in 0.1 ... 0.45.
+glossy_addon.spatial.ROUGHNESS_RATIO is chosen from this curve (its comment
+has the figures; about 8 minutes on 2 cores).
 
     .venv/bin/python benchmarks/roughness_blend.py [--faces 24] [--pixels 16]
 """

@@ -149,7 +149,7 @@ BUMP_SOURCES = [
 class GlossyMaterialSettings(bpy.types.PropertyGroup):
     """The BRDF and bake settings of one material (``Material.glossy``)."""
 
-    model: bpy.props.EnumProperty(name="BRDF", items=MODEL_ITEMS, default="ggx")
+    model: bpy.props.EnumProperty(name="BRDF", items=MODEL_ITEMS, default="MATERIAL")
     roughness: bpy.props.FloatProperty(name="Roughness", default=0.3, min=0.01, max=1.0)
     exponent: bpy.props.FloatProperty(name="Exponent", default=50.0, min=0.0, max=1e5)
     color: bpy.props.FloatVectorProperty(name="Color", subtype="COLOR", size=3, min=0.0,

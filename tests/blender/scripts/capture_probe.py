@@ -123,6 +123,7 @@ report["poll_without_mesh"] = bpy.ops.glossy.capture_probes.poll()
 bpy.ops.mesh.primitive_uv_sphere_add(location=(0.0, 3.0, 0.0))
 ball = bpy.context.object
 material = bpy.data.materials.new("Sharp")
+material.glossy.model = "ggx"
 material.glossy.roughness = 0.1
 ball.data.materials.append(material)
 ball.glossy.probe_source = "WORLD"

@@ -97,6 +97,7 @@ def scenario():
     # 4b. Esc inside one material's bake (between two parts, a pair of slices each):
     # the bake stops there and writes nothing, though it would need seconds more.
     big = bpy.data.materials.new("Big")
+    big.glossy.model = "ggx"
     big.glossy.roughness = 0.1
     big.glossy.size_mode = "FIXED"
     big.glossy.map_size = 256
