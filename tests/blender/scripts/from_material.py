@@ -21,6 +21,7 @@ hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
+from _operators import run  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.glossy_addon.material_source import changed_inputs, derive  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
@@ -34,13 +35,6 @@ settings.validate_resolution = 64
 settings.validate_samples = 256
 settings.validate_eevee_samples = 4
 result = {}
-
-
-def run(operator, **kwargs):
-    try:
-        return sorted(operator(**kwargs)), ""
-    except RuntimeError as error:  # an operator's ERROR report, in background mode
-        return ["CANCELLED"], str(error).strip()
 
 
 bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)

@@ -20,6 +20,7 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np  # noqa: E402
+from _operators import run, world_probe  # noqa: E402
 from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world, float_exr_output  # noqa: E402
 
@@ -46,9 +47,7 @@ for name, x in (("A", -1.2), ("B", 1.2)):
     sphere = bpy.context.object
     sphere.name = name
     sphere.data.materials.append(material)
-    sphere.glossy.probe_source = "WORLD"
-    sphere.glossy.probe_size_mode = "FIXED"
-    sphere.glossy.probe_resolution = 16
+    world_probe(sphere)
     spheres[name] = sphere
 camera_data = bpy.data.cameras.new("camera")
 camera_data.type = "ORTHO"
@@ -58,13 +57,6 @@ camera.location = (0.0, 0.0, 6.0)
 scene.collection.objects.link(camera)
 scene.camera = camera
 result = {}
-
-
-def run(operator):
-    try:
-        return sorted(operator()), ""
-    except RuntimeError as error:
-        return ["CANCELLED"], str(error).strip()
 
 
 def select(obj):

@@ -22,6 +22,7 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np  # noqa: E402
+from _operators import run, shader_material, world_probe  # noqa: E402
 from glossy.bake import exr, prefilter  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
@@ -72,13 +73,7 @@ images = {"colour": image("colour", colour, "sRGB"),
 
 
 def principled_material(name, textured):
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    tree = material.node_tree
-    tree.nodes.clear()
-    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
+    material, tree, bsdf = shader_material(name)
     if textured:
         for key, socket in (("colour", "Base Color"), ("roughness", "Roughness")):
             node = tree.nodes.new("ShaderNodeTexImage")
@@ -106,17 +101,8 @@ for index, name in enumerate(("Plain", "Textured")):
     obj.modifiers["subdivision"].render_levels = 1
     bpy.ops.object.shade_smooth()
     obj.data.materials.append(principled_material(name, name == "Textured"))
-    obj.glossy.probe_source = "WORLD"
-    obj.glossy.probe_size_mode = "FIXED"
-    obj.glossy.probe_resolution = 64
+    world_probe(obj, 64)
     suzannes[name] = obj
-
-
-def run(operator):
-    try:
-        return sorted(operator()), ""
-    except RuntimeError as error:  # an operator's ERROR report, in background mode
-        return ["CANCELLED"], str(error).strip()
 
 
 for name, obj in suzannes.items():
