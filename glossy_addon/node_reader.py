@@ -51,7 +51,8 @@ class Derived:
     hash); ``images``: identities of the images read (name, file, size);
     ``spatial``: what the attached lookup applies per pixel (see
     :func:`spatial_inputs`): {"colour": {"node", "input", "mean" (3,), "part":
-    "glossy" | "diffuse", "exact"}, "normal": {"node", "input"}, "roughness":
+    "glossy" | "diffuse", "exact", "split" (a metal's two-map split,
+    bake.colour_response)}, "normal": {"node", "input"}, "roughness":
     {"node", "input", "low", "high"}}, node and input names of the tree read.
     """
 
@@ -192,13 +193,17 @@ class _Reader:
         if kind not in ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse",
                         "ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfGlossy"):
             return
-        colour_input, part, exact = "Color", "glossy", True
+        colour_input, part, exact, split = "Color", "glossy", True, False
         if principled:
             colour_input = "Base Color"
             metallic = float(top.inputs["Metallic"].default_value)
             part = None if self.linked(top, "Metallic") or 0.0 < metallic < 1.0 else \
                 "diffuse" if metallic == 0.0 else "glossy"
-            exact = part == "diffuse"
+            # An uncoated metal: two maps (base colours 0 and 1) and the energy term
+            # give the reflection at any colour exactly (bake.colour_response).
+            split = part == "glossy" and not self.linked(top, "Coat Weight") and \
+                float(top.inputs["Coat Weight"].default_value) == 0.0
+            exact = part == "diffuse" or split
         elif kind == "ShaderNodeBsdfDiffuse":
             part = "diffuse"
         else:
@@ -206,7 +211,7 @@ class _Reader:
         if part is not None and self.varying(top, colour_input):
             self.per_pixel[(top.name, colour_input)] = {
                 "kind": "colour", "node": top.name, "input": colour_input, "part": part,
-                "exact": exact}
+                "exact": exact, "split": split}
         if self.linked(top, "Normal"):
             self.per_pixel[(top.name, "Normal")] = {"kind": "normal", "node": top.name,
                                                     "input": "Normal"}
@@ -226,6 +231,14 @@ class _Reader:
             if plan["kind"] == "colour":
                 mean = np.maximum(np.clip(d.inputs[label], 0.0, 1.0), COLOUR_FLOOR)
                 plan["mean"] = [float(c) for c in mean]
+                if plan["split"]:
+                    d.approximated.append(
+                        f"{label}: applied per pixel to the metal through maps baked at base "
+                        "colours 0 and 1 and the Multiscatter energy term (exact: "
+                        "bake.colour_response; the Hybrid and Runtime Sampling methods "
+                        f"scale the part baked at {_fmt(mean)} instead)")
+                    d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+                    continue
                 how = "exact: the reflection is linear in it" if plan["exact"] else \
                     ("approximate: the metal's Fresnel colour at grazing angles follows the "
                      "baked mean" if plan["part"] == "glossy" else "approximate")

@@ -212,7 +212,7 @@ def _group_node(b, tree, values):
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
                  runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
-                 roughness_maps=None):
+                 roughness_maps=None, colour_split=None):
     """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
     it the active Material Output's surface.
 
@@ -239,10 +239,13 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     ``spatial``: the user's sockets applied per pixel (glossy_addon.spatial):
     {"normal": socket} replaces the geometric normal of every lookup;
     {"glossy" | "diffuse": (colour socket, baked mean (3,))} multiplies that part
-    by socket / mean. ``roughness_maps``: (roughness socket, [(roughness,
-    image, meta), ...] ascending) blends the environment lookups of maps baked
-    at those roughnesses by tent weights of the socket's value (clamped to
-    their range); ``image`` / ``meta`` are then unused.
+    by socket / mean. ``roughness_maps``: (roughness socket or None,
+    [(roughness or None, colour or None, image, meta), ...]): the environment
+    lookups of maps baked at roughness knots, blended per pixel by the
+    socket's value (:func:`_roughness_blend`), and / or at base colours 0 and 1,
+    combined by ``colour_split`` = (colour socket, {roughness or None:
+    bake.colour_response.ColourResponse}) as (L_0 + c (L_1 - L_0)) m(c, mu)
+    (:func:`_colour_split`); ``image`` / ``meta`` are then unused.
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -254,7 +257,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     spatial = spatial or {}
     b = _Builder(tree)
     if roughness_maps is not None:
-        value = _roughness_blend(b, *roughness_maps)
+        value = _combined_maps(b, *roughness_maps, colour_split)
     else:
         value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
@@ -388,14 +391,55 @@ def _factor(b, socket, mean):
     return b.vec("DIVIDE", socket, b.combine(*(float(max(c, 1e-6)) for c in mean)))
 
 
-def _roughness_blend(b, roughness, maps):
-    """The environment lookups of maps baked at ascending roughnesses, blended per
-    pixel by the ``roughness`` socket (clamped to their range): between knots
+def _combined_maps(b, roughness, maps, colour_split=None):
+    """The value of build_lookup's ``roughness_maps`` (see there): per roughness
+    knot the map's lookup, or the colour split of its two maps; then the
+    roughness blend over the knots (one knot: its value)."""
+    knots = sorted({r for r, _, _, _ in maps}, key=lambda r: -1.0 if r is None else r)
+    values = []
+    for knot in knots:
+        lookups = {c: _environment(b, image, meta) for r, c, image, meta in maps if r == knot}
+        if None in lookups:
+            values.append(lookups[None])
+        else:
+            colour, responses = colour_split
+            values.append(_colour_split(b, lookups[0.0], lookups[1.0], colour,
+                                        responses[knot]))
+    if len(knots) == 1:
+        return values[0]
+    return _roughness_blend(b, roughness, knots, values)
+
+
+def _colour_split(b, low, high, colour, found):
+    """(low + c (high - low)) m(c, mu) per channel, c the user's colour clamped to
+    [0, 1] and m the Multiscatter energy term of ``found`` (a
+    bake.colour_response.ColourResponse, whose ``combine`` is this in NumPy):
+    m = 1 + Fms (1 / E(mu) - 1), Fms = Fss E_avg / (1 - Fss (1 - E_avg)),
+    Fss = offset + slope c, E(mu) an RGB curve over mu = n.v."""
+    c = b.vec("MINIMUM", b.vec("MAXIMUM", colour, b.combine(0.0, 0.0, 0.0)),
+              b.combine(1.0, 1.0, 1.0))
+    value = b.vec("ADD", low, b.vec("MULTIPLY", c, b.vec("SUBTRACT", high, low)))
+    if not found.multiscatter:
+        return value
+    one = b.combine(1.0, 1.0, 1.0)
+    albedo = b.vec("MAXIMUM", _view_curve(b, found.mu, [[float(e)] * 3 for e in found.albedo]),
+                   b.combine(1e-6, 1e-6, 1e-6))
+    fss = b.vec("ADD", b.vec("MULTIPLY", c, b.combine(*map(float, found.slope))),
+                b.combine(*map(float, found.offset)))
+    fms = b.vec("DIVIDE", b.vec("SCALE", fss, scale=found.average),
+                b.vec("SUBTRACT", one, b.vec("SCALE", fss, scale=1.0 - found.average)))
+    energy = b.vec("ADD", one, b.vec("MULTIPLY", fms, b.vec("SUBTRACT", b.vec(
+        "DIVIDE", one, albedo), one)))
+    return b.vec("MULTIPLY", value, energy)
+
+
+def _roughness_blend(b, roughness, knots, values):
+    """Lookups ``values`` of maps baked at ascending roughnesses ``knots``, blended
+    per pixel by the ``roughness`` socket (clamped to their range): between knots
     r0 < r1, the geometric blend L0^(1 - t) L1^t per channel with t linear in
     log r (glossy_addon.spatial: three times closer to a map baked at r than a
     linear blend where a bright light's peak grows as the lobe narrows)."""
-    values = [_environment(b, image, meta) for _, image, meta in maps]
-    knots = [float(r) for r, _, _ in maps]
+    knots = [float(r) for r in knots]
     r = b.math("MINIMUM", b.math("MAXIMUM", roughness, knots[0]), knots[-1])
     log_r = b.math("LOGARITHM", r, math.e)
     value = values[0]

@@ -74,7 +74,7 @@ def _material_records(material):
     settings = material.glossy
     return [settings.bake_path, settings.diffuse_path, settings.lamp_path,
             settings.runtime_path] + \
-        [p for _, p in settings.roughness_map_list()] + history(settings, "bake_history")
+        [p for _, p, _ in settings.roughness_map_list()] + history(settings, "bake_history")
 
 
 def holders(path) -> list:
@@ -128,7 +128,7 @@ def _current(data) -> list:
         return [resolved(settings.probe_path)]
     return [resolved(settings.bake_path), resolved(settings.diffuse_path),
             resolved(settings.lamp_path), resolved(settings.runtime_path)] + \
-        [resolved(p) for _, p in settings.roughness_map_list()]
+        [resolved(p) for _, p, _ in settings.roughness_map_list()]
 
 
 def used_by_other_owner(path, data) -> str | None:

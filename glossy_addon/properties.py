@@ -262,7 +262,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "(a material shared by objects with different probes: each reflects its own)")
     roughness_maps: bpy.props.StringProperty(
         name="Roughness Maps", description="Maps baked at roughness knots for a roughness "
-        "texture (From Material, JSON [[roughness, path], ...]): blended per pixel")
+        "texture and/or at base colours 0 and 1 for a metal's colour texture (From "
+        "Material, JSON [[roughness or null, path, colour or null], ...]): combined per "
+        "pixel")
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_owner: bpy.props.StringProperty(
@@ -373,12 +375,18 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         return tuple(float(c) for c in self.diffuse)
 
     def roughness_map_list(self) -> list:
-        """[(roughness, path), ...] of a roughness-blend bake (empty: none)."""
+        """[(roughness or None, path, colour or None), ...] of the maps a From Material
+        lookup combines per pixel (glossy_addon.spatial; empty: one map)."""
         import json
 
+        def number(value):
+            return None if value is None else float(value)
+
         try:
-            return [(float(r), str(p)) for r, p in json.loads(self.roughness_maps or "[]")]
-        except (ValueError, TypeError):
+            return [(number(entry[0]), str(entry[1]),
+                     number(entry[2]) if len(entry) > 2 else None)
+                    for entry in json.loads(self.roughness_maps or "[]")]
+        except (ValueError, TypeError, IndexError):
             return []
 
     def tangent(self) -> tuple:

@@ -9,11 +9,15 @@ pixel from the user's nodes, which stay in the attached material untouched:
   factor ``colour(x) / baked mean`` of the part that is linear in it: the
   diffuse part of a dielectric Principled or a Diffuse BSDF (exact: Cycles'
   diffuse weight does not depend on the base colour), the glossy part of a
-  Glossy BSDF (exact except Multiscatter GGX's energy term) or of a metallic
-  (Metallic = 1) Principled (approximate: the F82 Fresnel is affine in the
-  base colour, and toward grazing it goes to the edge tint, not to the
-  scaled colour). A partly metallic or metallic-textured surface keeps the
-  mean (listed as approximated);
+  Glossy BSDF (exact except Multiscatter GGX's energy term) or of a coated
+  metallic (Metallic = 1) Principled (approximate: toward grazing the F82
+  Fresnel goes to the edge tint, not to the scaled colour). An uncoated metal
+  instead gets two maps, baked at base colours 0 and 1, combined per pixel as
+  (R_0 + c (R_1 - R_0)) m(c, mu) with the Multiscatter energy term m
+  (bake.colour_response: exact, where the ratio is off by 10-85% for dark or
+  bright texels, benchmarks/colour_response.py); with a roughness texture
+  too, two maps per roughness knot (:func:`map_variants`). A partly metallic
+  or metallic-textured surface keeps the mean (listed as approximated);
 - its Normal input (a Normal Map or Bump node): the normal of every lookup
   (environment, diffuse, view weight, runtime sampling, lamps);
 - its Roughness from an image: the map is baked at roughness knots spaced
@@ -63,6 +67,37 @@ def with_roughness(spec: str, roughness: float) -> str:
     if len(found) != 1:
         raise ValueError(f"expected one roughness in {spec}, found {len(found)}")
     return _ROUGHNESS.sub(f"roughness={roughness:.6g}", spec)
+
+
+def colour_responses(parts) -> dict:
+    """{roughness knot or None: bake.colour_response.ColourResponse} of a From
+    Material glossy part whose base colour is split per pixel (Derived.spatial's
+    colour plan with "split"); {} where it is not (or the split does not apply)."""
+    from ..bake import brdf
+    from ..bake.colour_response import response
+
+    plan = parts.derived.spatial.get("colour") if parts.derived is not None else None
+    if not plan or not plan.get("split"):
+        return {}
+    out = {}
+    for roughness, spec in parts.roughness_set or [(None, parts.glossy_spec)]:
+        found = response(brdf.parse(spec))
+        if found is None:
+            return {}
+        out[roughness] = found
+    return out
+
+
+def map_variants(parts, colour=True) -> list:
+    """[(roughness or None, colour or None, glossy spec), ...]: the maps a From
+    Material bake writes, one per roughness knot (Parts.roughness_set) and, with
+    ``colour`` and a split base colour (:func:`colour_responses`), one at base
+    colour 0 and one at 1 for each; [] for one map of Parts.glossy_spec."""
+    responses = colour_responses(parts) if colour else {}
+    if not responses:
+        return [(r, None, spec) for r, spec in parts.roughness_set]
+    return [(r, c, spec) for r, found in responses.items()
+            for c, spec in ((0.0, found.low), (1.0, found.high))]
 
 
 def input_socket(material, node_name: str, input_name: str):

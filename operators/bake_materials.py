@@ -19,7 +19,7 @@ from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
-from ..glossy_addon.spatial import input_socket, lookup_sockets
+from ..glossy_addon.spatial import colour_responses, input_socket, lookup_sockets, map_variants
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -61,7 +61,7 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
     written = []
     with outputs.Staged() as staged:
         textures = [(path, environment), (runtime_path, runtime)] + \
-            [(knot_path, texture) for _, knot_path, texture in knots if knot_path != path]
+            [(knot_path, texture) for _, knot_path, texture, _ in knots if knot_path != path]
         for target_path, texture in textures:
             if texture is None:
                 continue
@@ -87,7 +87,8 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
             written.append(lamp_path)
     settings.bake_path = str(path) if environment is not None else ""
     settings.runtime_path = str(runtime_path) if runtime is not None else ""
-    settings.roughness_maps = json.dumps([[r, str(p)] for r, p, _ in knots]) if knots else ""
+    settings.roughness_maps = json.dumps([[r, str(p), c] for r, p, _, c in knots]) \
+        if knots else ""
     settings.diffuse_path = str(diffuse_path) if diffuse is not None else ""
     settings.lamp_path = str(lamp_path) if factors is not None else ""
     settings.lamp_error = separable.error(factors, settings.brdf_spec()) \
@@ -218,14 +219,19 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             isotropic = brdf.parse(settings.brdf_spec()).isotropic
             knot_paths = []
             if settings.model == "MATERIAL" and isotropic:
-                knots = material_parts(material).roughness_set
-                if knots and settings.method in ("3d", "2d", "hybrid"):
-                    for index, (roughness, _) in enumerate(knots):
+                found = material_parts(material)
+                knots = found.roughness_set
+                variants = map_variants(found, colour=settings.method in ("3d", "2d"))
+                if variants and settings.method in ("3d", "2d", "hybrid"):
+                    order = sorted({r for r, _, _ in variants if r is not None})
+                    for roughness, colour, _ in variants:
+                        suffix = (f"_r{order.index(roughness)}" if roughness is not None
+                                  else "") + (f"_c{colour:g}" if colour is not None else "")
                         knot_path = ownership.claim(folder, stem,
-                                                    f"_{settings.method}_r{index}.exr",
+                                                    f"_{settings.method}{suffix}.exr",
                                                     material, taken)
                         taken.add(knot_path)
-                        knot_paths.append((roughness, knot_path))
+                        knot_paths.append((roughness, colour, knot_path))
                 elif knots:
                     self._warnings.append(
                         f"{material.name}: the roughness texture is taken at its mean with the "
@@ -302,11 +308,13 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             image, atlas_meta = atlas.pack_split_sum(baked)
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
-            knot_specs = dict(material_parts(material).roughness_set) if knot_paths else {}
-            jobs = [(r, knot_path, knot_specs[r]) for r, knot_path in knot_paths] or \
-                [(None, path, spec)]
+            variants = {(r, c): variant_spec for r, c, variant_spec in map_variants(
+                material_parts(material), colour=settings.method in ("3d", "2d"))} \
+                if knot_paths else {}
+            jobs = [(r, c, knot_path, variants[(r, c)]) for r, c, knot_path in knot_paths] \
+                or [(None, None, path, spec)]
             start = 0.3 if runtime is not None else 0.1
-            for index, (roughness, job_path, job_spec) in enumerate(jobs):
+            for index, (roughness, colour, job_path, job_spec) in enumerate(jobs):
                 baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                     probe, job_spec, "3d" if settings.method == "hybrid" else settings.method,
                     size, slices=settings.slices,
@@ -314,20 +322,28 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     layout=layout, max_size=max_size)),
                     start + (0.85 - start) * index / len(jobs),
                     start + (0.85 - start) * (index + 1) / len(jobs))
-                if roughness is not None:
-                    knots.append((roughness, job_path, atlas.pack(baked)))
+                if roughness is not None or colour is not None:
+                    knots.append((roughness, job_path, atlas.pack(baked), colour))
                     sizes.append(baked.meta["size"])
                 else:
                     image, atlas_meta = atlas.pack(baked)
                     rows, reason = baked.meta["size"], baked.meta["size_reason"]
             if knots:
-                mean = float(brdf.parse(spec).params.get("roughness", knots[0][0]))
-                nearest = min(knots, key=lambda knot: abs(knot[0] - mean))
+                mean = float(brdf.parse(spec).params.get("roughness", 0.0))
+                # The map recorded as the bake: the white one (colour 1) nearest the mean.
+                nearest = min((k for k in knots if k[3] in (None, 1.0)),
+                              key=lambda knot: abs((knot[0] or mean) - mean))
                 path, (image, atlas_meta) = nearest[1], nearest[2]
                 rows = max(sizes)
-                reason = (f"{len(knots)} maps at roughness "
-                          f"{', '.join(f'{r:.3g}' for r, _, _ in knots)} for the roughness "
-                          f"texture, {min(sizes)}-{max(sizes)} rows "
+                roughnesses = sorted({r for r, _, _, _ in knots if r is not None})
+                what = []
+                if roughnesses:
+                    what.append(f"roughness {', '.join(f'{r:.3g}' for r in roughnesses)} for "
+                                f"the roughness texture")
+                if any(k[3] is not None for k in knots):
+                    what.append("base colours 0 and 1 for the metal's colour texture")
+                reason = (f"{len(knots)} maps at {' and '.join(what)}, "
+                          f"{min(sizes)}-{max(sizes)} rows "
                           f"({baked.meta['size_reason'].split(':')[-1].strip()})")
             if runtime is not None:
                 reason += f"; {runtime_reason}"
@@ -398,6 +414,40 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
     bl_label = "Attach Lookups"
     bl_options = {"REGISTER", "UNDO"}
 
+    @staticmethod
+    def _combined_maps(material, found, image, spatial):
+        """build_lookup's (roughness_maps, colour_split) for the maps a From Material
+        bake wrote per roughness knot and base colour (glossy_addon.spatial), or
+        (None, None) where the bake is one map or the user's sockets are gone (the
+        one map is then used, the colour as a factor). Removes the colour factor
+        from ``spatial`` where the split replaces it."""
+        knots = material.glossy.roughness_map_list()
+        if not knots or image is None or found.derived is None:
+            return None, None
+        roughness_socket = colour_socket = responses = None
+        if any(r is not None for r, _, _ in knots):
+            texture = found.derived.spatial.get("roughness")
+            roughness_socket = input_socket(material, texture["node"], texture["input"]) \
+                if texture else None
+            if roughness_socket is None:
+                return None, None
+        if any(c is not None for _, _, c in knots):
+            plan = found.derived.spatial.get("colour")
+            colour_socket = input_socket(material, plan["node"], plan["input"]) \
+                if plan else None
+            responses = colour_responses(found)
+            if colour_socket is None or set(responses) != {r for r, _, _ in knots}:
+                return None, None
+        maps = []
+        for roughness, knot_path, colour in knots:
+            _, knot_meta = exr.read(knot_path)
+            maps.append((roughness, colour, load_atlas(
+                knot_path, precision=knot_meta.get("precision", "float32")), knot_meta))
+        if colour_socket is None:
+            return (roughness_socket, maps), None
+        spatial.pop("glossy", None)
+        return (roughness_socket, maps), (colour_socket, responses)
+
     def execute(self, context):
         obj, _ = _object_with_probe(context)
         attached, warnings = 0, []
@@ -444,25 +494,14 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 weighting = found.weighting
                 spatial = lookup_sockets(material, found.derived.spatial) \
                     if found.derived is not None else {}
-                roughness_maps = None
-                knots = settings.roughness_map_list()
-                texture = found.derived.spatial.get("roughness") \
-                    if found.derived is not None else None
-                roughness_socket = input_socket(material, texture["node"], texture["input"]) \
-                    if knots and texture else None
-                if knots and roughness_socket is not None and image is not None:
-                    maps = []
-                    for roughness, knot_path in knots:
-                        _, knot_meta = exr.read(knot_path)
-                        maps.append((roughness, load_atlas(
-                            knot_path, precision=knot_meta.get("precision", "float32")),
-                            knot_meta))
-                    roughness_maps = (roughness_socket, maps)
+                roughness_maps, colour_split = self._combined_maps(material, found, image,
+                                                                   spatial)
                 build_lookup(material, image, meta, diffuse,
                              weighting[1] if weighting[0] == "fresnel" else 0.0, lamp_terms,
                              runtime=runtime, tangent=tangent,
                              diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
-                             spatial=spatial, roughness_maps=roughness_maps)
+                             spatial=spatial, roughness_maps=roughness_maps,
+                             colour_split=colour_split)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1

@@ -67,3 +67,56 @@ def test_the_roughness_blend_s_own_error_is_small(textured):
     # benchmarks/roughness_blend.py: worst 3.1% over the bundled HDRIs at knot
     # ratio 1.25 (roughness 0.1, studio.exr); measured here 1.0-1.7%.
     assert max(error for _, _, error in textured["blend_errors"]) < 0.031
+
+
+@pytest.fixture(scope="module")
+def textured_metal(tmp_path_factory, hdri_dir):
+    workdir = tmp_path_factory.mktemp("textured_metal")
+    return run_script("textured_material.py", hdri_dir / "sunset.exr", workdir, "metal",
+                      workdir / "r.json")
+
+
+def test_a_textured_metal_s_colour_is_split_exactly_and_stays_close_to_cycles(textured_metal):
+    plain, mapped = textured_metal["Plain"], textured_metal["Textured"]
+    for name in ("Plain", "Textured"):
+        assert [s[0] for s in textured_metal[name]["steps"]] == [["FINISHED"]] * 4, \
+            textured_metal[name]
+    notes = "\n".join(mapped["approximated"])
+    assert "Base Color: applied per pixel to the metal through maps baked at base colours " \
+           "0 and 1" in notes
+    # Two maps (base colour 0 and 1) at each roughness knot.
+    assert mapped["colours"] == [0.0, 1.0] and len(mapped["knots"]) >= 2
+    assert mapped["maps"] == 2 * len(mapped["knots"])
+    print(f"\nmetal, relative RMS against Cycles: textured {mapped['glossy']:.4f} (native "
+          f"{mapped['native']:.4f}), without textures {plain['glossy']:.4f} (native "
+          f"{plain['native']:.4f}); Cycles noise {mapped['noise']:.4f}")
+    # The issue's bound for a textured material (within 1.5x of the same material
+    # without textures, below native EEVEE). Gold and dark-iron stripes scaled
+    # from their mean (the ratio) are off by 7-67% at roughness 0.3
+    # (benchmarks/colour_response.py), which this bound would catch.
+    assert mapped["glossy"] < 1.5 * plain["glossy"]
+    assert mapped["glossy"] < mapped["native"]
+
+
+@pytest.fixture(scope="module")
+def colour_split(tmp_path_factory, hdri_dir):
+    workdir = tmp_path_factory.mktemp("colour_split")
+    return run_script("colour_split.py", hdri_dir / "sunset.exr", workdir, workdir / "r.json")
+
+
+def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_split):
+    direct, chain = colour_split["Direct"], colour_split["Chain"]
+    for name in ("Direct", "Chain"):
+        assert [s[0] for s in colour_split[name]["steps"]] == [["FINISHED"]] * 4, \
+            colour_split[name]
+    assert chain["colours"] == [0.0, 1.0] and direct["colours"] == []
+    print(f"\nmetal 0.3, dark green: typed in {direct['glossy']:.4f}, through a chain baked "
+          f"grey and split per pixel {chain['glossy']:.4f} (native {direct['native']:.4f}; "
+          f"Cycles noise {direct['noise']:.4f})")
+    # The split is exact (tests/bake/test_colour_response.py), so the chain's error
+    # is the typed-in material's: measured 3.52% and 3.53% (sunset, 64 px). The
+    # ratio (the grey map scaled by colour / grey) measured 7.8% here
+    # (colour_split.py ratio): the bound sits between, at twice Cycles' noise
+    # above the typed-in error.
+    assert abs(chain["glossy"] - direct["glossy"]) < 2 * direct["noise"]
+    assert chain["glossy"] < direct["native"]

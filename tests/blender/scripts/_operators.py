@@ -30,3 +30,52 @@ def shader_material(name, shader="ShaderNodeBsdfPrincipled"):
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(node.outputs[0], output.inputs["Surface"])
     return material, tree, node
+
+
+def validate_each(objects, workdir):
+    """{name: (steps, figures)}: each of ``objects`` ({name: object}) alone (the others
+    hidden from renders) selected, captured, baked, attached and validated, with
+    the step results (:func:`run`) and the figures of its validation report."""
+    import json
+    from pathlib import Path
+
+    out = {}
+    for name, obj in objects.items():
+        for other in objects.values():
+            other.hide_render = other is not obj
+        bpy.ops.object.select_all(action="DESELECT")
+        obj.select_set(True)
+        bpy.context.view_layer.objects.active = obj
+        steps = [run(bpy.ops.glossy.capture_probes), run(bpy.ops.glossy.bake_materials),
+                 run(bpy.ops.glossy.attach_materials), run(bpy.ops.glossy.validate)]
+        report = json.loads((Path(workdir) / "glossy" / "validation" / "report.json")
+                            .read_text())
+        out[name] = (steps, report["objects"][0]["figures"])
+    return out
+
+
+def errors(figures):
+    """(Glossy's, native EEVEE's best) relative RMS errors against Cycles in a report."""
+    methods = figures["methods"]
+    return (methods["eevee_glossy"]["relative_rms"],
+            min(methods["eevee_native"]["relative_rms"],
+                methods.get("eevee_native_careful", {}).get("relative_rms", 1.0)))
+
+
+def validation_scene(hdri, workdir, resolution):
+    """A new empty scene lit by ``hdri``, saved as WORKDIR/scene.blend (validation
+    writes beside it), with small validation settings: ``resolution`` px, Cycles
+    2 x 256 spp, EEVEE 4 samples."""
+    import glossy
+    from glossy.glossy_addon.scenes import environment_world
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    glossy.register()
+    scene = bpy.context.scene
+    environment_world(scene, hdri)
+    bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
+    settings = scene.glossy
+    settings.validate_resolution = resolution
+    settings.validate_samples = 256
+    settings.validate_eevee_samples = 4
+    return scene

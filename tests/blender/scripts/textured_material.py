@@ -1,6 +1,6 @@
 """A textured Principled material on Suzanne, From Material, against Cycles.
 
-    python textured_material.py HDRI WORKDIR RESULT.json
+    python textured_material.py HDRI WORKDIR [metal] RESULT.json
 
 Two Suzannes (subdivided once, smooth) with a user's Principled plastic
 (MULTI_GGX, metallic 0): "Textured" has an image texture on Base Color, a
@@ -11,42 +11,48 @@ from renders), and the report's relative RMS errors of EEVEE with Glossy and
 of native EEVEE against Cycles are recorded. The roughness blend's own error:
 maps baked at the geometric midpoints between neighbouring knots, against
 the geometric blend of the knots' maps, on an orthographic sphere.
+
+"metal": the same with Metallic 1, a base colour of gold and dark-iron
+stripes (a texture the F82 Fresnel is far from linear in: maps at base colours
+0 and 1 per roughness knot, bake.colour_response) and roughness from 0.28 to
+0.4 (three knots); the blend-error part is skipped.
 """
 
 import json
 import sys
 from pathlib import Path
 
-hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+METAL = "metal" in sys.argv[3:-1]
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-import glossy  # noqa: E402
 import numpy as np  # noqa: E402
-from _operators import run, shader_material, world_probe  # noqa: E402
+from _operators import (  # noqa: E402
+    errors,
+    shader_material,
+    validate_each,
+    validation_scene,
+    world_probe,
+)
 from glossy.bake import exr, prefilter  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
-from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 
 SIZE = 64
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-glossy.register()
-scene = bpy.context.scene
-environment_world(scene, hdri)
-bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
-settings = scene.glossy
-settings.validate_resolution = 80
-settings.validate_samples = 256
-settings.validate_eevee_samples = 4
+validation_scene(hdri, workdir, 80)
 result = {}
 
 # --- the user's textures (64 x 64, tiled over Suzanne's UVs) -------------------------------
 u, v = np.meshgrid((np.arange(SIZE) + 0.5) / SIZE, (np.arange(SIZE) + 0.5) / SIZE)
 stripes = 0.5 + 0.5 * np.sin(2 * np.pi * 3 * u)
-colour = (1 - stripes)[..., None] * np.array([0.8, 0.25, 0.1]) + \
-    stripes[..., None] * np.array([0.1, 0.35, 0.8])
-roughness = 0.2 + 0.4 * (0.5 + 0.5 * np.sin(2 * np.pi * 2 * v))
+low_colour, high_colour = ((0.08, 0.08, 0.09), (1.0, 0.77, 0.34)) if METAL else \
+    ((0.8, 0.25, 0.1), (0.1, 0.35, 0.8))
+colour = (1 - stripes)[..., None] * np.array(low_colour) + \
+    stripes[..., None] * np.array(high_colour)
+low_roughness, high_roughness = (0.28, 0.4) if METAL else (0.2, 0.6)
+roughness = low_roughness + (high_roughness - low_roughness) * \
+    (0.5 + 0.5 * np.sin(2 * np.pi * 2 * v))
 # A gentle bump: height 0.02 sin sin over a UV tile, its tangent-space normals.
 k = 2 * np.pi * 4
 dh_du = 0.02 * k * np.cos(k * u) * np.sin(k * v)
@@ -87,6 +93,8 @@ def principled_material(name, textured):
     else:
         bsdf.inputs["Base Color"].default_value = (*colour.reshape(-1, 3).mean(0), 1.0)
         bsdf.inputs["Roughness"].default_value = float(roughness.mean())
+    if METAL:
+        bsdf.inputs["Metallic"].default_value = 1.0
     material.glossy.model = "MATERIAL"
     material.glossy.slices = 8
     return material
@@ -105,30 +113,26 @@ for index, name in enumerate(("Plain", "Textured")):
     suzannes[name] = obj
 
 
-for name, obj in suzannes.items():
-    for other in suzannes.values():
-        other.hide_render = other is not obj
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    material = obj.material_slots[0].material
-    steps = [run(bpy.ops.glossy.capture_probes), run(bpy.ops.glossy.bake_materials),
-             run(bpy.ops.glossy.attach_materials), run(bpy.ops.glossy.validate)]
-    report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
-    figures = report["objects"][0]["figures"]
-    methods = figures["methods"]
+for name, (steps, figures) in validate_each(suzannes, workdir).items():
+    material = suzannes[name].material_slots[0].material
+    glossy_error, native_error = errors(figures)
     result[name] = {
         "steps": steps, "spec": material.glossy.brdf_spec(),
         "approximated": list(parts(material).derived.approximated),
-        "glossy": methods["eevee_glossy"]["relative_rms"],
-        "native": min(methods["eevee_native"]["relative_rms"],
-                      methods.get("eevee_native_careful", {}).get("relative_rms", 1.0)),
-        "noise": figures["cycles_noise"],
-        "knots": [r for r, _ in material.glossy.roughness_map_list()],
+        "glossy": glossy_error, "native": native_error, "noise": figures["cycles_noise"],
+        "knots": sorted({r for r, _, _ in material.glossy.roughness_map_list()
+                         if r is not None}),
+        "colours": sorted({c for _, _, c in material.glossy.roughness_map_list()
+                           if c is not None}),
+        "maps": len(material.glossy.roughness_map_list()),
         "size_reason": material.glossy.size_reason,
         "user_nodes": sorted(n.bl_idname for n in material.node_tree.nodes
                              if not n.get("glossy_lookup")),
     }
+
+if METAL:
+    result_path.write_text(json.dumps(result, indent=1, default=str))
+    sys.exit(0)
 
 # --- the roughness blend's own error ------------------------------------------------------
 textured = suzannes["Textured"].material_slots[0].material

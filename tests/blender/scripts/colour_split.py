@@ -1,0 +1,82 @@
+"""A metal whose base colour comes from a node chain, against the same metal typed in.
+
+    python colour_split.py HDRI WORKDIR [ratio] RESULT.json
+
+Two isolated spheres (World Only probes, From Material, Principled Metallic 1,
+roughness 0.3): "Direct" has the base colour COLOUR typed into the node;
+"Chain" has Base Color linked from a Gamma node (gamma 1) fed by an RGB node
+of COLOUR, while its own unlinked Base Color is a light grey: the node reader
+takes the unlinked value as the bake's colour, and the lookup reads COLOUR per
+pixel. Each sphere is captured, baked, attached and validated alone; the
+report's errors against Cycles are recorded. With the split
+(bake.colour_response) both spheres show the same reflection; scaling the
+grey map by COLOUR / grey (the ratio) is far off at grazing views, where the
+metal's Fresnel goes to white. "ratio" forces the ratio (for the figures in
+the test's comment).
+"""
+
+import json
+import sys
+from pathlib import Path
+
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+RATIO = "ratio" in sys.argv[3:-1]
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+from _operators import (  # noqa: E402
+    errors,
+    shader_material,
+    validate_each,
+    validation_scene,
+    world_probe,
+)
+from glossy.glossy_addon import spatial  # noqa: E402
+from glossy.glossy_addon.material_source import parts  # noqa: E402
+
+COLOUR = (0.06, 0.25, 0.05)
+GREY = (0.8, 0.8, 0.8)
+if RATIO:
+    spatial.colour_responses = lambda found: {}  # the bake and attach then use the ratio
+
+validation_scene(hdri, workdir, 64)
+result = {}
+
+spheres = {}
+for index, name in enumerate(("Direct", "Chain")):
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
+                                         ring_count=24)
+    obj = bpy.context.object
+    obj.name = name
+    bpy.ops.object.shade_smooth()
+    material, tree, bsdf = shader_material(name)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.3
+    if name == "Chain":
+        bsdf.inputs["Base Color"].default_value = (*GREY, 1.0)
+        rgb = tree.nodes.new("ShaderNodeRGB")
+        rgb.outputs[0].default_value = (*COLOUR, 1.0)
+        gamma = tree.nodes.new("ShaderNodeGamma")
+        gamma.inputs["Gamma"].default_value = 1.0
+        tree.links.new(rgb.outputs[0], gamma.inputs["Color"])
+        tree.links.new(gamma.outputs[0], bsdf.inputs["Base Color"])
+    else:
+        bsdf.inputs["Base Color"].default_value = (*COLOUR, 1.0)
+    material.glossy.model = "MATERIAL"
+    material.glossy.slices = 8
+    obj.data.materials.append(material)
+    world_probe(obj, 64)
+    spheres[name] = obj
+
+for name, (steps, figures) in validate_each(spheres, workdir).items():
+    material = spheres[name].material_slots[0].material
+    glossy_error, native_error = errors(figures)
+    result[name] = {
+        "steps": steps, "spec": material.glossy.brdf_spec(),
+        "approximated": list(parts(material).derived.approximated),
+        "glossy": glossy_error, "native": native_error,
+        "bias": figures["methods"]["eevee_glossy"].get("bias"),
+        "noise": figures["cycles_noise"],
+        "colours": sorted({c for _, _, c in material.glossy.roughness_map_list()
+                           if c is not None}),
+    }
+result_path.write_text(json.dumps(result, indent=1, default=str))
