@@ -155,7 +155,7 @@ class _Reader:
                 low, high = np.percentile(values, [1.0, 99.0])
                 plan.update(low=float(np.clip(low, 0.0, 1.0)), high=float(np.clip(high, 0, 1)))
         elif (node.name, name) in self.per_pixel and \
-                self.per_pixel[(node.name, name)]["kind"] == "colour":
+                self.per_pixel[(node.name, name)]["kind"] in ("colour", "tint"):
             value = own
         else:
             value = own
@@ -212,6 +212,16 @@ class _Reader:
             self.per_pixel[(top.name, colour_input)] = {
                 "kind": "colour", "node": top.name, "input": colour_input, "part": part,
                 "exact": exact, "split": split}
+        # The specular tint of an uncoated metal or dielectric: split like a metal's
+        # base colour (one split per material: the base colour's comes first).
+        if principled and part in ("glossy", "diffuse") and \
+                self.varying(top, "Specular Tint") and \
+                not self.linked(top, "Coat Weight") and \
+                float(top.inputs["Coat Weight"].default_value) == 0.0 and \
+                not (split and (top.name, colour_input) in self.per_pixel):
+            self.per_pixel[(top.name, "Specular Tint")] = {
+                "kind": "tint", "node": top.name, "input": "Specular Tint", "split": True,
+                "part": part}
         if self.linked(top, "Normal"):
             self.per_pixel[(top.name, "Normal")] = {"kind": "normal", "node": top.name,
                                                     "input": "Normal"}
@@ -222,6 +232,30 @@ class _Reader:
                 kind != "ShaderNodeBsdfDiffuse":
             self.per_pixel[(top.name, "Roughness")] = {"kind": "roughness", "node": top.name,
                                                        "input": "Roughness"}
+
+    def verify_split(self, model):
+        """Keep a split plan only where bake.colour_response splits the glossy part of
+        ``model``: a colour plan falls back to the factor, a tint plan to its value
+        (noted as taken at its value)."""
+        from ..bake.brdf.split import split
+        from ..bake.colour_response import response
+
+        glossy, _ = split(model)
+        for key, plan in list(self.per_pixel.items()):
+            if not plan.get("split"):
+                continue
+            parameter = "base_color" if plan["kind"] == "colour" else "specular_tint"
+            if glossy is not None and response(glossy, parameter) is not None:
+                continue
+            if plan["kind"] == "colour":
+                plan["split"] = False
+                plan["exact"] = plan["part"] == "diffuse"
+            else:
+                del self.per_pixel[key]
+                label = f"{key[0]}: {key[1]}"
+                self.derived.approximated.append(
+                    f"{label}: taken at {_fmt(self.derived.inputs[label])}; the link stays in "
+                    "the material but is not applied per pixel")
 
     def spatial_notes(self):
         """Derived.spatial and one 'approximated' line per input applied per pixel."""
@@ -244,6 +278,15 @@ class _Reader:
                      "baked mean" if plan["part"] == "glossy" else "approximate")
                 d.approximated.append(f"{label}: applied per pixel as a factor of the "
                                       f"{plan['part']} part baked at {_fmt(mean)} ({how})")
+            elif plan["kind"] == "tint":
+                diffuse = " (the diffuse layer's weight below follows the tint's value here: "\
+                    "it changes by at most F0 of the diffuse)" if plan["part"] == "diffuse" \
+                    else ""
+                d.approximated.append(
+                    f"{label}: applied per pixel through maps baked at tints 0 and 1 and the "
+                    "Multiscatter energy term (exact for the reflection: "
+                    f"bake.colour_response){diffuse}; the Hybrid and Runtime Sampling methods "
+                    f"take its value {_fmt(d.inputs[label])}")
             elif plan["kind"] == "normal":
                 d.approximated.append(f"{label}: the linked normal (normal or bump map) feeds "
                                       "the lookup's normal per pixel")
@@ -426,7 +469,6 @@ def read_material(material) -> Derived:
     if top is not None:
         reader.plan_spatial(top)
     spec = reader.shader(output.inputs["Surface"], output.name)
-    reader.spatial_notes()
     if not spec:
         raise NodeReadError(f"{material.name}: the surface reflects nothing Glossy can bake "
                             f"({'; '.join(reader.derived.ignored) or 'no BSDF'})")
@@ -434,5 +476,7 @@ def read_material(material) -> Derived:
         model = brdf.parse(spec)
     except BakeError as error:
         raise NodeReadError(f"{material.name}: {error}") from None
+    reader.verify_split(model)
+    reader.spatial_notes()
     reader.derived.spec = model.spec
     return reader.derived

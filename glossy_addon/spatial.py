@@ -14,10 +14,14 @@ pixel from the user's nodes, which stay in the attached material untouched:
   Fresnel goes to the edge tint, not to the scaled colour). An uncoated metal
   instead gets two maps, baked at base colours 0 and 1, combined per pixel as
   (R_0 + c (R_1 - R_0)) m(c, mu) with the Multiscatter energy term m
-  (bake.colour_response: exact, where the ratio is off by 10-85% for dark or
+  (bake.colour_response: exact, where the ratio is off by 6-70% for dark or
   bright texels, benchmarks/colour_response.py); with a roughness texture
   too, two maps per roughness knot (:func:`map_variants`). A partly metallic
   or metallic-textured surface keeps the mean (listed as approximated);
+- its Specular Tint driven by a node chain, on an uncoated metal or
+  dielectric (unless the metal's base colour is split already): split in the
+  same way, maps at tints 0 and 1 (exact for the reflection; a dielectric's
+  diffuse weight keeps the tint's unlinked value);
 - its Normal input (a Normal Map or Bump node): the normal of every lookup
   (environment, diffuse, view weight, runtime sampling, lamps);
 - its Roughness from an image: the map is baked at roughness knots spaced
@@ -69,19 +73,34 @@ def with_roughness(spec: str, roughness: float) -> str:
     return _ROUGHNESS.sub(f"roughness={roughness:.6g}", spec)
 
 
+def split_plan(derived) -> tuple:
+    """(bake.colour_response parameter, Derived.spatial plan) of the input a From
+    Material bake splits per pixel: a metal's base colour, else a specular tint;
+    (None, None) if neither."""
+    if derived is None:
+        return None, None
+    colour = derived.spatial.get("colour")
+    if colour and colour.get("split"):
+        return "base_color", colour
+    tint = derived.spatial.get("tint")
+    if tint and tint.get("split"):
+        return "specular_tint", tint
+    return None, None
+
+
 def colour_responses(parts) -> dict:
     """{roughness knot or None: bake.colour_response.ColourResponse} of a From
-    Material glossy part whose base colour is split per pixel (Derived.spatial's
-    colour plan with "split"); {} where it is not (or the split does not apply)."""
+    Material glossy part with an input split per pixel (:func:`split_plan`); {}
+    where there is none (or the split does not apply)."""
     from ..bake import brdf
     from ..bake.colour_response import response
 
-    plan = parts.derived.spatial.get("colour") if parts.derived is not None else None
-    if not plan or not plan.get("split"):
+    parameter, plan = split_plan(parts.derived)
+    if plan is None:
         return {}
     out = {}
     for roughness, spec in parts.roughness_set or [(None, parts.glossy_spec)]:
-        found = response(brdf.parse(spec))
+        found = response(brdf.parse(spec), parameter)
         if found is None:
             return {}
         out[roughness] = found

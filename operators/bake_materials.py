@@ -19,7 +19,13 @@ from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
-from ..glossy_addon.spatial import colour_responses, input_socket, lookup_sockets, map_variants
+from ..glossy_addon.spatial import (
+    colour_responses,
+    input_socket,
+    lookup_sockets,
+    map_variants,
+    split_plan,
+)
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -432,7 +438,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             if roughness_socket is None:
                 return None, None
         if any(c is not None for _, _, c in knots):
-            plan = found.derived.spatial.get("colour")
+            _, plan = split_plan(found.derived)
             colour_socket = input_socket(material, plan["node"], plan["input"]) \
                 if plan else None
             responses = colour_responses(found)

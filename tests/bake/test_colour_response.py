@@ -14,17 +14,18 @@ def _directions(rng, n):
     return w / np.linalg.norm(w, axis=1, keepdims=True)
 
 
-def _worst(extra, roughness, n=200):
+def _worst(extra, roughness, n=200, parameter="base_color", base="metallic=1"):
     """Largest |combine - truth| over random directions and colours, over the peak."""
     rng = np.random.default_rng(7)
     wi, wo = _directions(rng, n), _directions(rng, n)
     colours = rng.uniform(0.0, 1.0, (n, 3))
-    model = brdf.parse(f"principled:base_color=0.3,metallic=1,roughness={roughness}{extra}")
-    found = colour_response.response(model)
+    fixed = "base_color=0.3," if parameter != "base_color" else ""
+    model = brdf.parse(f"principled:{fixed}{parameter}=0.3,{base},roughness={roughness}{extra}")
+    found = colour_response.response(model, parameter)
     low = brdf.parse(found.low).f(wi, wo)
     high = brdf.parse(found.high).f(wi, wo)
     truth = np.stack([
-        brdf.parse(f"principled:base_color={'/'.join(f'{x:.9g}' for x in c)},metallic=1,"
+        brdf.parse(f"principled:{fixed}{parameter}={'/'.join(f'{x:.9g}' for x in c)},{base},"
                    f"roughness={roughness}{extra}").f(a, b)
         for a, b, c in zip(wi, wo, colours, strict=True)])
     got = found.combine(low, high, colours, wo[:, 2])
@@ -43,6 +44,18 @@ def test_multiscatter_metal_splits_into_two_maps_and_a_view_factor(extra, roughn
     # The only approximation is E(mu) read from 33 knots (measured: 3.5e-4 of
     # the peak at roughness 0.5); a wrong Fss or E_avg is off by percents.
     assert _worst(extra, roughness) < 2e-3
+
+
+@pytest.mark.parametrize("base, bound", [
+    ("metallic=1", 0.02),  # the F82 clamp at dark tints on a dark base (as below)
+    ("metallic=0,ior=1.5,diffuse=0", 2e-3),
+    ("metallic=0,ior=1.45,specular_ior_level=0.8,diffuse=0", 2e-3)])
+@pytest.mark.parametrize("roughness", [0.1, 0.5])
+def test_specular_tint_splits_like_the_base_colour(base, bound, roughness):
+    # A metal's F82 edge tint and a dielectric's F0 tint are affine in the tint:
+    # exact up to the E(mu) knots. The dielectric's glossy part alone (diffuse=0,
+    # as bake.brdf.split bakes it): its diffuse layer is the diffuse part's.
+    assert _worst("", roughness, parameter="specular_tint", base=base) < bound
 
 
 def test_a_coloured_specular_tint_stays_within_the_f82_clamp():
@@ -70,5 +83,14 @@ def test_energy_factor_is_one_without_multiscatter_and_largest_where_the_albedo_
     "principled:base_color=0.5,metallic=0,roughness=0.3",
     "principled:base_color=0.5,metallic=1,roughness=0.3,coat_weight=0.5",
 ])
-def test_only_uncoated_metals_get_the_split(spec):
+def test_only_uncoated_metals_get_the_base_colour_split(spec):
     assert colour_response.response(brdf.parse(spec)) is None
+
+
+@pytest.mark.parametrize("spec", [
+    "principled:metallic=0.5,roughness=0.3",
+    "principled:metallic=0,ior=1,roughness=0.3",
+    "principled:metallic=0,roughness=0.3,coat_weight=1",
+])
+def test_the_tint_split_needs_one_layer_without_a_coat(spec):
+    assert colour_response.response(brdf.parse(spec), "specular_tint") is None

@@ -91,9 +91,10 @@ def test_a_textured_metal_s_colour_is_split_exactly_and_stays_close_to_cycles(te
           f"{mapped['native']:.4f}), without textures {plain['glossy']:.4f} (native "
           f"{plain['native']:.4f}); Cycles noise {mapped['noise']:.4f}")
     # The bound for a textured material (within 1.5x of the same material
-    # without textures, below native EEVEE). Gold and dark-iron stripes scaled
-    # from their mean (the ratio) are off by 7-67% at roughness 0.3
-    # (benchmarks/colour_response.py), which this bound would catch.
+    # without textures, below native EEVEE). Measured (sunset, 80 px): textured
+    # 19.9%, untextured 21.7%, native 20.9%: Suzanne's self-reflection dominates
+    # both, so this bound does not tell the split from the ratio (19.4% forced);
+    # the node-chain test below does.
     assert mapped["glossy"] < 1.5 * plain["glossy"]
     assert mapped["glossy"] < mapped["native"]
 
@@ -106,7 +107,7 @@ def colour_split(tmp_path_factory, hdri_dir):
 
 def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_split):
     direct, chain = colour_split["Direct"], colour_split["Chain"]
-    for name in ("Direct", "Chain"):
+    for name in ("Direct", "Chain", "Tint Direct", "Tint Chain"):
         assert [s[0] for s in colour_split[name]["steps"]] == [["FINISHED"]] * 4, \
             colour_split[name]
     assert chain["colours"] == [0.0, 1.0] and direct["colours"] == []
@@ -120,3 +121,10 @@ def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_
     # above the typed-in error.
     assert abs(chain["glossy"] - direct["glossy"]) < 2 * direct["noise"]
     assert chain["glossy"] < direct["native"]
+    # The metal's Specular Tint (F82 edge tint) through a chain: split the same way
+    # (measured 3.96% against 4.09% typed in). Its whole-image effect is small here
+    # (the grey unlinked tint instead measured 4.08%), so this checks the path,
+    # tests/bake/test_colour_response.py the exactness.
+    tint, typed = colour_split["Tint Chain"], colour_split["Tint Direct"]
+    assert tint["colours"] == [0.0, 1.0]
+    assert abs(tint["glossy"] - typed["glossy"]) < 2 * typed["noise"]

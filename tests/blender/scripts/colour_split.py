@@ -2,17 +2,19 @@
 
     python colour_split.py HDRI WORKDIR [ratio] RESULT.json
 
-Two isolated spheres (World Only probes, From Material, Principled Metallic 1,
+Isolated spheres (World Only probes, From Material, Principled Metallic 1,
 roughness 0.3): "Direct" has the base colour COLOUR typed into the node;
 "Chain" has Base Color linked from a Gamma node (gamma 1) fed by an RGB node
 of COLOUR, while its own unlinked Base Color is a light grey: the node reader
 takes the unlinked value as the bake's colour, and the lookup reads COLOUR per
-pixel. Each sphere is captured, baked, attached and validated alone; the
-report's errors against Cycles are recorded. With the split
+pixel. "Tint Direct" and "Tint Chain" do the same with the Specular Tint (the
+F82 edge tint, TINT) of a light grey metal. Each sphere is captured, baked,
+attached and validated alone; the report's errors against Cycles are
+recorded. With the split
 (bake.colour_response) both spheres show the same reflection; scaling the
 grey map by COLOUR / grey (the ratio) is far off at grazing views, where the
-metal's Fresnel goes to white. "ratio" forces the ratio (for the figures in
-the test's comment).
+metal's Fresnel goes to white. "ratio" forces the ratio (and the tint's
+unlinked value; for the figures in the test's comment).
 """
 
 import json
@@ -34,6 +36,7 @@ from glossy.glossy_addon import spatial  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
 COLOUR = (0.06, 0.25, 0.05)
+TINT = (0.9, 0.3, 0.05)
 GREY = (0.8, 0.8, 0.8)
 if RATIO:
     spatial.colour_responses = lambda found: {}  # the bake and attach then use the ratio
@@ -42,7 +45,10 @@ validation_scene(hdri, workdir, 64)
 result = {}
 
 spheres = {}
-for index, name in enumerate(("Direct", "Chain")):
+# (name, the input driven, whether through the chain)
+CASES = (("Direct", "Base Color", False), ("Chain", "Base Color", True),
+         ("Tint Direct", "Specular Tint", False), ("Tint Chain", "Specular Tint", True))
+for index, (name, input_name, chained) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
     obj = bpy.context.object
@@ -51,16 +57,19 @@ for index, name in enumerate(("Direct", "Chain")):
     material, tree, bsdf = shader_material(name)
     bsdf.inputs["Metallic"].default_value = 1.0
     bsdf.inputs["Roughness"].default_value = 0.3
-    if name == "Chain":
-        bsdf.inputs["Base Color"].default_value = (*GREY, 1.0)
+    if input_name == "Specular Tint":
+        bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+    value = COLOUR if input_name == "Base Color" else TINT
+    if chained:
+        bsdf.inputs[input_name].default_value = (*GREY, 1.0)
         rgb = tree.nodes.new("ShaderNodeRGB")
-        rgb.outputs[0].default_value = (*COLOUR, 1.0)
+        rgb.outputs[0].default_value = (*value, 1.0)
         gamma = tree.nodes.new("ShaderNodeGamma")
         gamma.inputs["Gamma"].default_value = 1.0
         tree.links.new(rgb.outputs[0], gamma.inputs["Color"])
-        tree.links.new(gamma.outputs[0], bsdf.inputs["Base Color"])
+        tree.links.new(gamma.outputs[0], bsdf.inputs[input_name])
     else:
-        bsdf.inputs["Base Color"].default_value = (*COLOUR, 1.0)
+        bsdf.inputs[input_name].default_value = (*value, 1.0)
     material.glossy.model = "MATERIAL"
     material.glossy.slices = 8
     obj.data.materials.append(material)
