@@ -32,6 +32,9 @@ GLOSSY_MODELS = {"GGX": "ggx", "BECKMANN": "beckmann", "ASHIKHMIN_SHIRLEY": "ash
                  "MULTI_GGX": "ggx_multiscatter"}
 #: Rec. 709 luminance: how Blender converts a colour link into a float socket.
 LUMINANCE = (0.2126, 0.7152, 0.0722)
+#: The BSDF nodes the reader reads (and plans per-pixel inputs of).
+BSDF_NODES = ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfAnisotropic",
+              "ShaderNodeBsdfGlossy")
 #: Below this roughness Cycles renders a perfect mirror (CYCLES.md).
 MIN_ROUGHNESS = 0.01
 #: A colour applied per pixel is baked at its mean, each channel at least this
@@ -184,15 +187,84 @@ class _Reader:
         return source is not None and source.bl_idname not in ("ShaderNodeRGB",
                                                                 "ShaderNodeValue")
 
-    def plan_spatial(self, top):
+    def _bsdf_nodes(self, socket, found):
+        """The BSDF nodes (Principled, Diffuse, Glossy) reached from shader ``socket``
+        through Mix and Add Shaders, appended to ``found`` once each."""
+        source = self._source(socket)[0]
+        if source is None:
+            return found
+        if source.bl_idname in ("ShaderNodeMixShader", "ShaderNodeAddShader"):
+            for child in source.inputs:
+                if child.type == "SHADER":
+                    self._bsdf_nodes(child, found)
+        elif source.bl_idname in BSDF_NODES and source not in found:
+            found.append(source)
+        return found
+
+    def plan_spatial(self, surface):
+        """Which inputs the lookup applies per pixel (glossy_addon.spatial), from the
+        BSDFs the Material Output's ``surface`` socket reaches: for a single BSDF
+        see :meth:`plan_single`; for several (through Mix and Add Shaders) a colour
+        texture where its node alone makes a part (the diffuse part of the only
+        diffuse BSDF, the glossy part of the only glossy one: a factor, exact as
+        the single BSDF's), the Normal where every BSDF takes the same link, and a
+        Roughness image where one BSDF alone has a roughness."""
+        nodes = self._bsdf_nodes(surface, [])
+        if len(nodes) == 1:
+            self.plan_single(nodes[0])
+            return
+        if not nodes:
+            return
+        contributions = [self._parts_of(node) for node in nodes]
+        for node, (colour_input, part, exact, _) in zip(nodes, contributions, strict=True):
+            others = [made for other, (_, _, _, made) in zip(nodes, contributions, strict=True)
+                      if other is not node]
+            if part is not None and self.varying(node, colour_input) and \
+                    not any(part in made for made in others):
+                self.per_pixel[(node.name, colour_input)] = {
+                    "kind": "colour", "node": node.name, "input": colour_input, "part": part,
+                    "exact": exact, "split": False}
+        sources = {self._source(node.inputs["Normal"])[1] for node in nodes}
+        if len(sources) == 1 and None not in sources:
+            for node in nodes:
+                self.per_pixel[(node.name, "Normal")] = {"kind": "normal", "node": node.name,
+                                                         "input": "Normal"}
+        rough = [node for node in nodes if node.bl_idname != "ShaderNodeBsdfDiffuse"]
+        if len(rough) == 1:
+            self._plan_roughness(rough[0])
+
+    def _parts_of(self, node):
+        """(colour input, the part linear in it or None, exact, every part the node
+        makes) of a BSDF node: a Diffuse BSDF makes the diffuse part, a Glossy BSDF
+        the glossy part (its colour exact but for Multiscatter GGX's energy term),
+        a Principled both (its base colour the diffuse layer's alone when
+        Metallic is 0; a metal's glossy part, approximate)."""
+        kind = node.bl_idname
+        if kind == "ShaderNodeBsdfDiffuse":
+            return "Color", "diffuse", True, {"diffuse"}
+        if kind != "ShaderNodeBsdfPrincipled":
+            return "Color", "glossy", node.distribution != "MULTI_GGX", {"glossy"}
+        metallic = float(node.inputs["Metallic"].default_value)
+        if self.linked(node, "Metallic") or 0.0 < metallic < 1.0:
+            return "Base Color", None, False, {"diffuse", "glossy"}
+        if metallic == 0.0:
+            return "Base Color", "diffuse", True, {"diffuse", "glossy"}
+        return "Base Color", "glossy", False, {"glossy"}
+
+    def _plan_roughness(self, node):
+        source = self._source(node.inputs["Roughness"])[0] if "Roughness" in node.inputs \
+            else None
+        if source is not None and source.bl_idname == "ShaderNodeTexImage" and \
+                source.image is not None and len(source.image.pixels):
+            self.per_pixel[(node.name, "Roughness")] = {"kind": "roughness", "node": node.name,
+                                                        "input": "Roughness"}
+
+    def plan_single(self, top):
         """Which inputs of the surface's only BSDF node ``top`` the lookup applies per
         pixel (module docstring of glossy_addon.spatial): its colour where the
         reflection is linear in it, its Normal, its Roughness from an image."""
         kind = top.bl_idname
         principled = kind == "ShaderNodeBsdfPrincipled"
-        if kind not in ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse",
-                        "ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfGlossy"):
-            return
         colour_input, part, exact, split = "Color", "glossy", True, False
         if principled:
             colour_input = "Base Color"
@@ -225,13 +297,8 @@ class _Reader:
         if self.linked(top, "Normal"):
             self.per_pixel[(top.name, "Normal")] = {"kind": "normal", "node": top.name,
                                                     "input": "Normal"}
-        source = self._source(top.inputs["Roughness"])[0] if "Roughness" in top.inputs \
-            else None
-        if source is not None and source.bl_idname == "ShaderNodeTexImage" and \
-                source.image is not None and len(source.image.pixels) and \
-                kind != "ShaderNodeBsdfDiffuse":
-            self.per_pixel[(top.name, "Roughness")] = {"kind": "roughness", "node": top.name,
-                                                       "input": "Roughness"}
+        if kind != "ShaderNodeBsdfDiffuse":
+            self._plan_roughness(top)
 
     def verify_split(self, model):
         """Keep a split plan only where bake.colour_response splits the glossy part of
@@ -465,9 +532,7 @@ def read_material(material) -> Derived:
         reader.derived.ignored.append(f"{output.name}: the volume shader")
     if output.inputs["Displacement"].is_linked:
         reader.derived.ignored.append(f"{output.name}: displacement")
-    top = reader._source(output.inputs["Surface"])[0]
-    if top is not None:
-        reader.plan_spatial(top)
+    reader.plan_spatial(output.inputs["Surface"])
     spec = reader.shader(output.inputs["Surface"], output.name)
     if not spec:
         raise NodeReadError(f"{material.name}: the surface reflects nothing Glossy can bake "

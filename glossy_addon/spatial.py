@@ -1,9 +1,9 @@
 """What a From Material lookup applies per pixel, from the user's own nodes.
 
 The node reader (glossy_addon.node_reader) bakes a material at one value of
-each input; where the surface is a single Principled, Glossy or Diffuse BSDF
-it also records (Derived.spatial) the inputs the attached lookup takes per
-pixel from the user's nodes, which stay in the attached material untouched:
+each input; it also records (Derived.spatial) the inputs the attached lookup
+takes per pixel from the user's nodes, which stay in the attached material
+untouched. For a single Principled, Glossy or Diffuse BSDF at the output:
 
 - its colour (Base Color / Color) driven by a texture or any node chain, as a
   factor ``colour(x) / baked mean`` of the part that is linear in it: the
@@ -71,6 +71,14 @@ def with_roughness(spec: str, roughness: float) -> str:
     if len(found) != 1:
         raise ValueError(f"expected one roughness in {spec}, found {len(found)}")
     return _ROUGHNESS.sub(f"roughness={roughness:.6g}", spec)
+
+
+# For several BSDFs reached through Mix and Add Shaders
+# (node_reader._Reader.plan_spatial): a colour texture of a BSDF that alone makes
+# its part (the only diffuse BSDF's colour for the diffuse part, the only glossy
+# BSDF's for the glossy part), as a factor exactly as above; the Normal where
+# every BSDF takes the same link; a Roughness image where one BSDF alone has a
+# roughness. No split in a mix; anything else is taken at its mean, and listed.
 
 
 def split_plan(derived) -> tuple:

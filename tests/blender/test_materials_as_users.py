@@ -107,7 +107,7 @@ def colour_split(tmp_path_factory, hdri_dir):
 
 def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_split):
     direct, chain = colour_split["Direct"], colour_split["Chain"]
-    for name in ("Direct", "Chain", "Tint Direct", "Tint Chain"):
+    for name in ("Direct", "Chain", "Tint Direct", "Tint Chain", "Mix Direct", "Mix Chain"):
         assert [s[0] for s in colour_split[name]["steps"]] == [["FINISHED"]] * 4, \
             colour_split[name]
     assert chain["colours"] == [0.0, 1.0] and direct["colours"] == []
@@ -128,3 +128,9 @@ def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_
     tint, typed = colour_split["Tint Chain"], colour_split["Tint Direct"]
     assert tint["colours"] == [0.0, 1.0]
     assert abs(tint["glossy"] - typed["glossy"]) < 2 * typed["noise"]
+    # A Mix Shader of a Diffuse BSDF (colour through the chain, grey unlinked) and a
+    # Glossy BSDF: the diffuse part's factor (measured 3.46% both ways; the grey
+    # alone would be 3-16x too bright in every channel).
+    mixed, mixed_typed = colour_split["Mix Chain"], colour_split["Mix Direct"]
+    assert mixed["spatial"] == ["colour"]
+    assert abs(mixed["glossy"] - mixed_typed["glossy"]) < 2 * mixed_typed["noise"]

@@ -8,7 +8,9 @@ roughness 0.3): "Direct" has the base colour COLOUR typed into the node;
 of COLOUR, while its own unlinked Base Color is a light grey: the node reader
 takes the unlinked value as the bake's colour, and the lookup reads COLOUR per
 pixel. "Tint Direct" and "Tint Chain" do the same with the Specular Tint (the
-F82 edge tint, TINT) of a light grey metal. Each sphere is captured, baked,
+F82 edge tint, TINT) of a light grey metal; "Mix Direct" and "Mix Chain" with
+the Color of a Diffuse BSDF mixed half and half with a GGX 0.3 Glossy BSDF
+(the diffuse part's factor in a Mix tree). Each sphere is captured, baked,
 attached and validated alone; the report's errors against Cycles are
 recorded. With the split
 (bake.colour_response) both spheres show the same reflection; scaling the
@@ -47,19 +49,30 @@ result = {}
 spheres = {}
 # (name, the input driven, whether through the chain)
 CASES = (("Direct", "Base Color", False), ("Chain", "Base Color", True),
-         ("Tint Direct", "Specular Tint", False), ("Tint Chain", "Specular Tint", True))
+         ("Tint Direct", "Specular Tint", False), ("Tint Chain", "Specular Tint", True),
+         ("Mix Direct", "Color", False), ("Mix Chain", "Color", True))
 for index, (name, input_name, chained) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
     obj = bpy.context.object
     obj.name = name
     bpy.ops.object.shade_smooth()
-    material, tree, bsdf = shader_material(name)
-    bsdf.inputs["Metallic"].default_value = 1.0
-    bsdf.inputs["Roughness"].default_value = 0.3
+    if input_name == "Color":  # a Mix Shader of a Diffuse and a Glossy BSDF
+        material, tree, glossy_bsdf = shader_material(name, "ShaderNodeBsdfGlossy")
+        glossy_bsdf.distribution = "GGX"
+        glossy_bsdf.inputs["Roughness"].default_value = 0.3
+        bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        mix = tree.nodes.new("ShaderNodeMixShader")
+        tree.links.new(bsdf.outputs[0], mix.inputs[1])
+        tree.links.new(glossy_bsdf.outputs[0], mix.inputs[2])
+        tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    else:
+        material, tree, bsdf = shader_material(name)
+        bsdf.inputs["Metallic"].default_value = 1.0
+        bsdf.inputs["Roughness"].default_value = 0.3
     if input_name == "Specular Tint":
         bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
-    value = COLOUR if input_name == "Base Color" else TINT
+    value = TINT if input_name == "Specular Tint" else COLOUR
     if chained:
         bsdf.inputs[input_name].default_value = (*GREY, 1.0)
         rgb = tree.nodes.new("ShaderNodeRGB")
@@ -87,5 +100,6 @@ for name, (steps, figures) in validate_each(spheres, workdir).items():
         "noise": figures["cycles_noise"],
         "colours": sorted({c for _, _, c in material.glossy.roughness_map_list()
                            if c is not None}),
+        "spatial": sorted(parts(material).derived.spatial),
     }
 result_path.write_text(json.dumps(result, indent=1, default=str))

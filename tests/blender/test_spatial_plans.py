@@ -1,0 +1,62 @@
+"""The node reader's per-pixel plans (glossy_addon.node_reader / spatial) for single
+BSDFs and Mix / Add trees: which user inputs the attached lookup applies per
+pixel, which it takes at one value, and the maps a bake writes."""
+
+import pytest
+
+from tests.blender.conftest import run_script
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture(scope="module")
+def plans(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("plans")
+    return run_script("spatial_plans.py", workdir / "r.json")
+
+
+def test_a_mix_of_diffuse_and_glossy_keeps_the_colour_texture_and_the_shared_normal(plans):
+    mix = plans["Mix Diffuse Glossy"]
+    # The diffuse BSDF alone makes the diffuse part: its texture is an exact factor.
+    assert mix["spatial"]["colour"]["part"] == "diffuse"
+    assert mix["spatial"]["colour"]["exact"] is True
+    # Both BSDFs take the same Normal Map: it is the lookup's normal.
+    assert "normal" in mix["spatial"]
+    assert not any("Normal" in line for line in mix["ignored"])
+
+
+def test_a_part_made_by_two_bsdfs_keeps_the_texture_s_mean(plans):
+    # Two diffuse BSDFs (one textured) and a glossy one: a factor on the diffuse
+    # part would scale the untextured BSDF too, so the mean is used and said.
+    two = plans["Two Diffuse"]
+    assert two["spatial"] == {}
+    assert any("taken at its mean" in line for line in two["approximated"])
+    # The normal map on one BSDF only cannot be the lookup's normal: listed.
+    assert any("Normal" in line for line in two["ignored"])
+    # A Glossy BSDF's colour where a Principled makes glossy light too: the mean.
+    over = plans["Glossy Over Plastic"]
+    assert "colour" not in over["spatial"]
+    assert any("taken at its mean" in line for line in over["approximated"])
+
+
+def test_an_add_tree_blends_the_glossy_bsdf_s_roughness_texture(plans):
+    add = plans["Add Rough Glossy"]
+    assert add["spatial"]["roughness"]["low"] == pytest.approx(0.2, abs=1e-3)
+    assert add["spatial"]["roughness"]["high"] == pytest.approx(0.6, abs=1e-3)
+    knots = [r for r, _ in add["maps"]]
+    assert knots[0] == pytest.approx(0.2, abs=1e-3) and knots[-1] == pytest.approx(0.6, abs=1e-3)
+    assert all(b / a <= 1.25 + 1e-6 for a, b in zip(knots[:-1], knots[1:], strict=True))
+    assert add["spatial"]["colour"]["part"] == "glossy"
+
+
+def test_colour_splits_where_bake_colour_response_applies(plans):
+    # A coated metal keeps the c / mean factor (no split: the coat needs a third map).
+    coated = plans["Coated Metal"]["spatial"]["colour"]
+    assert coated["split"] is False and coated["exact"] is False
+    # A plastic's Specular Tint from a chain: maps at tints 0 and 1.
+    assert plans["Tinted Plastic"]["maps"] == [[None, 0.0], [None, 1.0]]
+    assert "tint" in plans["Tinted Plastic"]["spatial"]
+    # A metal with both: the base colour is split, the tint taken at its value.
+    both = plans["Metal Colour And Tint"]
+    assert both["spatial"]["colour"]["split"] is True and "tint" not in both["spatial"]
+    assert any("Specular Tint: driven by 'Gamma'" in line for line in both["approximated"])
