@@ -27,10 +27,15 @@ user's colour per pixel and evaluates exactly this (glossy_addon.nodes);
 Exact as far as the F82 clamp to [0, 1] is inactive (always with a white
 Specular Tint; a dark tint on a dark base can clamp at grazing half-vectors:
 1.2% of the peak at roughness 0.9, tests/bake/test_colour_response.py), up to
-the E(mu) curve's 33 knots (3e-4 of the peak). A coated metal is left out
-(:func:`response` gives None): the coat does not depend on c but would be
-scaled by m too, off by up to a third of the peak at roughness 0.9 (it would
-need a third map of the coat alone).
+the E(mu) curve's 33 knots (3e-4 of the peak). A coat on top (Coat Weight >
+0) does not depend on c and is not scaled by m, and the layers below it are
+weighted by a function of the view only, W(mu) (the coat's transmission and
+its tint, bake.brdf.principled's lower_weights): with R_0 and R_1 baked
+without the coat and a third map C of the coat alone (the same Principled
+with Metallic 0 and IOR 1, whose only layer is then the coat),
+R(c) = C + W(mu) (R_0 + c (R_1 - R_0)) m(c, mu), exact as well; and each map
+holds one lobe shape, which a one-lobe fit follows better than the sum of a
+narrow coat and a wider metal.
 """
 
 from dataclasses import dataclass
@@ -55,7 +60,8 @@ class ColourResponse:
     ``low`` / ``high``: canonical bake.brdf specs at base colour 0 and 1
     (Multiscatter off); ``mu`` (K,) view cosines and ``albedo`` (K,) E(mu) there;
     ``average``: E_avg; ``offset`` / ``slope`` (3,): Fss(c) = offset + slope c
-    per channel; ``multiscatter``: False makes m = 1.
+    per channel; ``multiscatter``: False makes m = 1; ``coat``: the spec of the
+    coat alone and ``under`` (K, 3) W(mu) at ``mu`` (None: no coat).
     """
 
     low: str
@@ -66,6 +72,8 @@ class ColourResponse:
     offset: np.ndarray
     slope: np.ndarray
     multiscatter: bool
+    coat: str | None = None
+    under: np.ndarray | None = None
 
     def energy(self, colour, mu) -> np.ndarray:
         """m(c, mu) (..., 3) for colours (..., 3) in [0, 1] and view cosines mu (...)."""
@@ -78,17 +86,23 @@ class ColourResponse:
         fms = fss * self.average / (1.0 - fss * (1.0 - self.average))
         return 1.0 + fms * (1.0 - e) / e
 
-    def combine(self, low, high, colour, mu) -> np.ndarray:
-        """(low + c (high - low)) m(c, mu): the reflection at colour c (..., 3) from
-        the two maps' values ``low`` / ``high`` (..., 3) at view cosines mu (...)."""
+    def combine(self, low, high, colour, mu, coat=None) -> np.ndarray:
+        """C + W(mu) (low + c (high - low)) m(c, mu): the reflection at colour c
+        (..., 3) from the maps' values ``low`` / ``high`` (and ``coat``, C, where
+        :attr:`coat` is set; else C = 0 and W = 1) (..., 3) at view cosines mu (...)."""
         colour = np.clip(np.asarray(colour, dtype=np.float64), 0.0, 1.0)
-        return (low + colour * (high - low)) * self.energy(colour, mu)
+        value = (low + colour * (high - low)) * self.energy(colour, mu)
+        if self.coat is None:
+            return value
+        mu = np.clip(mu, 0.0, 1.0)
+        under = np.stack([np.interp(mu, self.mu, self.under[:, k]) for k in range(3)], -1)
+        return coat + under * value
 
 
 def response(model, parameter="base_color") -> ColourResponse | None:
     """The ColourResponse of a glossy part ``model`` (a bake.brdf model) to its
     ``parameter`` ("base_color" or "specular_tint", the colour c of the module
-    docstring), or None where the split does not apply: anything but an uncoated
+    docstring), or None where the split does not apply: anything but a
     Principled BSDF, for the base colour a partly or not metallic one (Metallic
     < 1: the base colour also weights the diffuse layer), for the specular tint
     a partly metallic one (the metal and the dielectric layers would need two
@@ -99,7 +113,7 @@ def response(model, parameter="base_color") -> ColourResponse | None:
     in the same way, so both are exact as the base colour is. A dielectric's
     diffuse layer below depends on the tint too (its weight 1 - max_c of the
     specular albedo): that is the diffuse part's, not this split's."""
-    if not isinstance(model, Principled) or model.coat > 0.0:
+    if not isinstance(model, Principled):
         return None
     if parameter == "base_color" and model.metallic != 1.0:
         return None
@@ -111,10 +125,15 @@ def response(model, parameter="base_color") -> ColourResponse | None:
     ends = [Principled(**{**params, parameter: value}) for value in (0.0, 1.0)]
     fss = [end._metal_fss() if model.metallic == 1.0 else end._spec_fss() for end in ends]
     fss = [np.broadcast_to(np.asarray(f, dtype=np.float64), (3,)) for f in fss]
-    low, high = (Principled(**{**params, parameter: value, "multiscatter": 0.0}).spec
-                 for value in (0.0, 1.0))
+    below = {**params, "coat_weight": 0.0, "multiscatter": 0.0}  # the layers below a coat
+    low, high = (Principled(**{**below, parameter: value}).spec for value in (0.0, 1.0))
     nodes, e, _, average = model._main
     mu = np.linspace(0.0, 1.0, MU_KNOTS) ** 2
     albedo = np.interp(mu, nodes, e)
+    coat = under = None
+    if model.coat > 0.0:
+        coat = Principled(**{**params, "metallic": 0.0, "ior": 1.0, "specular_tint": 1.0,
+                             "base_color": 0.0, "multiscatter": 0.0}).spec
+        under = model.lower_weights(mu)[0]
     return ColourResponse(low, high, mu, albedo, float(average), fss[0].copy(),
-                          fss[1] - fss[0], model.multiscatter)
+                          fss[1] - fss[0], model.multiscatter, coat, under)

@@ -271,11 +271,11 @@ class _Reader:
             metallic = float(top.inputs["Metallic"].default_value)
             part = None if self.linked(top, "Metallic") or 0.0 < metallic < 1.0 else \
                 "diffuse" if metallic == 0.0 else "glossy"
-            # An uncoated metal: two maps (base colours 0 and 1) and the energy term
-            # give the reflection at any colour exactly (bake.colour_response).
-            split = part == "glossy" and not self.linked(top, "Coat Weight") and \
-                float(top.inputs["Coat Weight"].default_value) == 0.0
-            exact = part == "diffuse" or split
+            # A metal: two maps (base colours 0 and 1; a third of the coat alone) and
+            # the energy term give the reflection at any colour exactly
+            # (bake.colour_response).
+            split = part == "glossy"
+            exact = True
         elif kind == "ShaderNodeBsdfDiffuse":
             part = "diffuse"
         else:
@@ -284,12 +284,10 @@ class _Reader:
             self.per_pixel[(top.name, colour_input)] = {
                 "kind": "colour", "node": top.name, "input": colour_input, "part": part,
                 "exact": exact, "split": split}
-        # The specular tint of an uncoated metal or dielectric: split like a metal's
-        # base colour (one split per material: the base colour's comes first).
+        # The specular tint of a metal or dielectric: split like a metal's base colour
+        # (one split per material: the base colour's comes first).
         if principled and part in ("glossy", "diffuse") and \
                 self.varying(top, "Specular Tint") and \
-                not self.linked(top, "Coat Weight") and \
-                float(top.inputs["Coat Weight"].default_value) == 0.0 and \
                 not (split and (top.name, colour_input) in self.per_pixel):
             self.per_pixel[(top.name, "Specular Tint")] = {
                 "kind": "tint", "node": top.name, "input": "Specular Tint", "split": True,
@@ -335,7 +333,8 @@ class _Reader:
                 if plan["split"]:
                     d.approximated.append(
                         f"{label}: applied per pixel to the metal through maps baked at base "
-                        "colours 0 and 1 and the Multiscatter energy term (exact: "
+                        "colours 0 and 1 (and the coat alone, if any) and the Multiscatter "
+                        "energy term (exact: "
                         "bake.colour_response; the Hybrid and Runtime Sampling methods "
                         f"scale the part baked at {_fmt(mean)} instead)")
                     d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}

@@ -11,6 +11,8 @@ import math
 
 import bpy
 
+from .spatial import COAT
+
 GROUP_VERSION = 1
 
 
@@ -404,23 +406,33 @@ def _combined_maps(b, roughness, maps, colour_split=None):
         else:
             colour, responses = colour_split
             values.append(_colour_split(b, lookups[0.0], lookups[1.0], colour,
-                                        responses[knot]))
+                                        responses[knot], lookups.get(COAT)))
     if len(knots) == 1:
         return values[0]
     return _roughness_blend(b, roughness, knots, values)
 
 
-def _colour_split(b, low, high, colour, found):
-    """(low + c (high - low)) m(c, mu) per channel, c the user's colour clamped to
-    [0, 1] and m the Multiscatter energy term of ``found`` (a
-    bake.colour_response.ColourResponse, whose ``combine`` is this in NumPy):
+def _colour_split(b, low, high, colour, found, coat=None):
+    """C + W(mu) (low + c (high - low)) m(c, mu) per channel, c the user's colour
+    clamped to [0, 1], C the ``coat`` lookup and W(mu) an RGB curve of
+    ``found.under`` (C = 0, W = 1 without a coat), and m the Multiscatter
+    energy term of ``found`` (a bake.colour_response.ColourResponse, whose
+    ``combine`` is this in NumPy):
     m = 1 + Fms (1 / E(mu) - 1), Fms = Fss E_avg / (1 - Fss (1 - E_avg)),
     Fss = offset + slope c, E(mu) an RGB curve over mu = n.v."""
     c = b.vec("MINIMUM", b.vec("MAXIMUM", colour, b.combine(0.0, 0.0, 0.0)),
               b.combine(1.0, 1.0, 1.0))
     value = b.vec("ADD", low, b.vec("MULTIPLY", c, b.vec("SUBTRACT", high, low)))
-    if not found.multiscatter:
+    if found.multiscatter:
+        value = b.vec("MULTIPLY", value, _energy_term(b, c, found))
+    if coat is None:
         return value
+    under = _view_curve(b, found.mu, [[float(w) for w in row] for row in found.under])
+    return b.vec("ADD", coat, b.vec("MULTIPLY", under, value))
+
+
+def _energy_term(b, c, found):
+    """m(c, mu) of :func:`_colour_split` (vector socket)."""
     one = b.combine(1.0, 1.0, 1.0)
     albedo = b.vec("MAXIMUM", _view_curve(b, found.mu, [[float(e)] * 3 for e in found.albedo]),
                    b.combine(1e-6, 1e-6, 1e-6))
@@ -428,9 +440,8 @@ def _colour_split(b, low, high, colour, found):
                 b.combine(*map(float, found.offset)))
     fms = b.vec("DIVIDE", b.vec("SCALE", fss, scale=found.average),
                 b.vec("SUBTRACT", one, b.vec("SCALE", fss, scale=1.0 - found.average)))
-    energy = b.vec("ADD", one, b.vec("MULTIPLY", fms, b.vec("SUBTRACT", b.vec(
+    return b.vec("ADD", one, b.vec("MULTIPLY", fms, b.vec("SUBTRACT", b.vec(
         "DIVIDE", one, albedo), one)))
-    return b.vec("MULTIPLY", value, energy)
 
 
 def _roughness_blend(b, roughness, knots, values):

@@ -9,24 +9,24 @@ untouched. For a single Principled, Glossy or Diffuse BSDF at the output:
   factor ``colour(x) / baked mean`` of the part that is linear in it: the
   diffuse part of a dielectric Principled or a Diffuse BSDF (exact: Cycles'
   diffuse weight does not depend on the base colour), the glossy part of a
-  Glossy BSDF (exact except Multiscatter GGX's energy term) or of a coated
-  metallic (Metallic = 1) Principled (approximate: toward grazing the F82
-  Fresnel goes to the edge tint, not to the scaled colour). An uncoated metal
-  instead gets two maps, baked at base colours 0 and 1, combined per pixel as
-  (R_0 + c (R_1 - R_0)) m(c, mu) with the Multiscatter energy term m
+  Glossy BSDF (exact except Multiscatter GGX's energy term). A metal
+  (Metallic = 1 Principled) instead gets two maps, baked at base colours 0
+  and 1, combined per pixel as (R_0 + c (R_1 - R_0)) m(c, mu) with the
+  Multiscatter energy term m (under a coat, of the layers below it, plus a
+  map of the coat alone)
   (bake.colour_response: exact, where the ratio is off by 6-70% for dark or
   bright texels, benchmarks/colour_response.py); with a roughness texture
   too, two maps per roughness knot (:func:`map_variants`). A partly metallic
   or metallic-textured surface keeps the mean (listed as approximated);
-- its Specular Tint driven by a node chain, on an uncoated metal or
-  dielectric (unless the metal's base colour is split already): split in the
+- its Specular Tint driven by a node chain, on a metal or a dielectric
+  (unless the metal's base colour is split already): split in the
   same way, maps at tints 0 and 1 (exact for the reflection; a dielectric's
   diffuse weight keeps the tint's unlinked value);
 - its Normal input (a Normal Map or Bump node): the normal of every lookup
   (environment, diffuse, view weight, runtime sampling, lamps);
 - its Roughness from an image: the map is baked at roughness knots spaced
   geometrically from the image's 1st to its 99th percentile and the lookups
-  are blended per pixel by tent weights of the user's roughness value
+  are blended per pixel, geometrically, by the user's roughness value
   (:func:`roughness_knots`).
 """
 
@@ -46,6 +46,9 @@ ROUGHNESS_RATIO = 1.25
 ROUGHNESS_SPREAD = 1.05
 #: At most this many maps (each a lookup in the shader).
 MAX_KNOTS = 8
+#: The colour key of a split's map of the coat alone (map_variants; its file
+#: ends in ``_coat``).
+COAT = -1.0
 #: Roughness knots start no lower than this (Cycles' mirror threshold).
 MIN_ROUGHNESS = 0.01
 
@@ -119,12 +122,14 @@ def map_variants(parts, colour=True) -> list:
     """[(roughness or None, colour or None, glossy spec), ...]: the maps a From
     Material bake writes, one per roughness knot (Parts.roughness_set) and, with
     ``colour`` and a split base colour (:func:`colour_responses`), one at base
-    colour 0 and one at 1 for each; [] for one map of Parts.glossy_spec."""
+    colour 0 and one at 1 for each (and one of the coat alone, colour
+    :data:`COAT`, where the split needs it); [] for one map of Parts.glossy_spec."""
     responses = colour_responses(parts) if colour else {}
     if not responses:
         return [(r, None, spec) for r, spec in parts.roughness_set]
     return [(r, c, spec) for r, found in responses.items()
-            for c, spec in ((0.0, found.low), (1.0, found.high))]
+            for c, spec in ((0.0, found.low), (1.0, found.high), (COAT, found.coat))
+            if spec is not None]
 
 
 def input_socket(material, node_name: str, input_name: str):

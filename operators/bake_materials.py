@@ -20,6 +20,7 @@ from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.spatial import (
+    COAT,
     colour_responses,
     input_socket,
     lookup_sockets,
@@ -232,7 +233,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     order = sorted({r for r, _, _ in variants if r is not None})
                     for roughness, colour, _ in variants:
                         suffix = (f"_r{order.index(roughness)}" if roughness is not None
-                                  else "") + (f"_c{colour:g}" if colour is not None else "")
+                                  else "") + ("" if colour is None else "_coat"
+                                              if colour == COAT else f"_c{colour:g}")
                         knot_path = ownership.claim(folder, stem,
                                                     f"_{settings.method}{suffix}.exr",
                                                     material, taken)
@@ -347,7 +349,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     what.append(f"roughness {', '.join(f'{r:.3g}' for r in roughnesses)} for "
                                 f"the roughness texture")
                 if any(k[3] is not None for k in knots):
-                    what.append("base colours 0 and 1 for the metal's colour texture")
+                    _, plan = split_plan(material_parts(material).derived)
+                    what.append(f"{plan['input'].lower()}s 0 and 1"
+                                + (" and the coat alone" if any(k[3] == COAT for k in knots)
+                                   else "") + f" for the per-pixel {plan['input']}")
                 reason = (f"{len(knots)} maps at {' and '.join(what)}, "
                           f"{min(sizes)}-{max(sizes)} rows "
                           f"({baked.meta['size_reason'].split(':')[-1].strip()})")

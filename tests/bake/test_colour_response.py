@@ -28,7 +28,8 @@ def _worst(extra, roughness, n=200, parameter="base_color", base="metallic=1"):
         brdf.parse(f"principled:{fixed}{parameter}={'/'.join(f'{x:.9g}' for x in c)},{base},"
                    f"roughness={roughness}{extra}").f(a, b)
         for a, b, c in zip(wi, wo, colours, strict=True)])
-    got = found.combine(low, high, colours, wo[:, 2])
+    coat = brdf.parse(found.coat).f(wi, wo) if found.coat else None
+    got = found.combine(low, high, colours, wo[:, 2], coat)
     return np.abs(got - truth).max() / truth.max()
 
 
@@ -38,7 +39,9 @@ def test_single_scatter_metal_is_affine_in_its_base_colour(roughness):
     assert _worst(",multiscatter=0", roughness) < 1e-6
 
 
-@pytest.mark.parametrize("extra", ["", ",anisotropy=0.5,rotation=0.2"])
+@pytest.mark.parametrize("extra", ["", ",anisotropy=0.5,rotation=0.2",
+                                   ",coat_weight=1,coat_roughness=0.1",
+                                   ",coat_weight=0.6,coat_roughness=0.3,coat_tint=0.8/0.6/0.4"])
 @pytest.mark.parametrize("roughness", [0.1, 0.5, 0.9])
 def test_multiscatter_metal_splits_into_two_maps_and_a_view_factor(extra, roughness):
     # The only approximation is E(mu) read from 33 knots (measured: 3.5e-4 of
@@ -64,6 +67,17 @@ def test_a_coloured_specular_tint_stays_within_the_f82_clamp():
     assert _worst(",specular_tint=0.9/0.6/0.3", 0.9) < 0.02
 
 
+def test_the_coat_map_is_the_coat_alone():
+    # A coated metal's coat map: the same coat over nothing (Metallic 0, IOR 1).
+    model = brdf.parse("principled:base_color=0.5,metallic=1,roughness=0.4,coat_weight=1")
+    coat = brdf.parse(colour_response.response(model).coat)
+    assert coat.metallic == 0.0 and coat.eta == 1.0 and coat.coat == 1.0
+    found = colour_response.response(model)
+    assert "coat_weight=0" in found.low and "coat_weight=0" in found.high
+    assert found.under.shape == (colour_response.MU_KNOTS, 3)
+    assert np.all((found.under > 0.0) & (found.under <= 1.0))
+
+
 def test_energy_factor_is_one_without_multiscatter_and_largest_where_the_albedo_is_least():
     model = brdf.parse("principled:base_color=0.5,metallic=1,roughness=0.6")
     found = colour_response.response(model)
@@ -81,16 +95,14 @@ def test_energy_factor_is_one_without_multiscatter_and_largest_where_the_albedo_
     "ggx:roughness=0.3",
     "principled:base_color=0.5,metallic=0.5,roughness=0.3",
     "principled:base_color=0.5,metallic=0,roughness=0.3",
-    "principled:base_color=0.5,metallic=1,roughness=0.3,coat_weight=0.5",
 ])
-def test_only_uncoated_metals_get_the_base_colour_split(spec):
+def test_only_metals_get_the_base_colour_split(spec):
     assert colour_response.response(brdf.parse(spec)) is None
 
 
 @pytest.mark.parametrize("spec", [
     "principled:metallic=0.5,roughness=0.3",
     "principled:metallic=0,ior=1,roughness=0.3",
-    "principled:metallic=0,roughness=0.3,coat_weight=1",
 ])
-def test_the_tint_split_needs_one_layer_without_a_coat(spec):
+def test_the_tint_split_needs_one_layer(spec):
     assert colour_response.response(brdf.parse(spec), "specular_tint") is None

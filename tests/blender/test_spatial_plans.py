@@ -50,9 +50,10 @@ def test_an_add_tree_blends_the_glossy_bsdf_s_roughness_texture(plans):
 
 
 def test_colour_splits_where_bake_colour_response_applies(plans):
-    # A coated metal keeps the c / mean factor (no split: the coat needs a third map).
-    coated = plans["Coated Metal"]["spatial"]["colour"]
-    assert coated["split"] is False and coated["exact"] is False
+    # A coated metal: maps of the metal at colours 0 and 1 and of the coat alone.
+    coated = plans["Coated Metal"]
+    assert coated["spatial"]["colour"]["split"] is True
+    assert coated["maps"] == [[None, 0.0], [None, 1.0], [None, -1.0]]
     # A plastic's Specular Tint from a chain: maps at tints 0 and 1.
     assert plans["Tinted Plastic"]["maps"] == [[None, 0.0], [None, 1.0]]
     assert "tint" in plans["Tinted Plastic"]["spatial"]

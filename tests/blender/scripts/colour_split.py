@@ -10,7 +10,9 @@ takes the unlinked value as the bake's colour, and the lookup reads COLOUR per
 pixel. "Tint Direct" and "Tint Chain" do the same with the Specular Tint (the
 F82 edge tint, TINT) of a light grey metal; "Mix Direct" and "Mix Chain" with
 the Color of a Diffuse BSDF mixed half and half with a GGX 0.3 Glossy BSDF
-(the diffuse part's factor in a Mix tree). Each sphere is captured, baked,
+(the diffuse part's factor in a Mix tree); "Coat Direct" and "Coat Chain" as
+the first two under a coat (Coat Weight 1: a third map of the coat alone).
+Each sphere is captured, baked,
 attached and validated alone; the report's errors against Cycles are
 recorded. With the split
 (bake.colour_response) both spheres show the same reflection; scaling the
@@ -47,11 +49,12 @@ validation_scene(hdri, workdir, 64)
 result = {}
 
 spheres = {}
-# (name, the input driven, whether through the chain)
-CASES = (("Direct", "Base Color", False), ("Chain", "Base Color", True),
-         ("Tint Direct", "Specular Tint", False), ("Tint Chain", "Specular Tint", True),
-         ("Mix Direct", "Color", False), ("Mix Chain", "Color", True))
-for index, (name, input_name, chained) in enumerate(CASES):
+# (name, the input driven, whether through the chain, coat weight)
+CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0),
+         ("Tint Direct", "Specular Tint", False, 0.0), ("Tint Chain", "Specular Tint", True, 0.0),
+         ("Mix Direct", "Color", False, 0.0), ("Mix Chain", "Color", True, 0.0),
+         ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0))
+for index, (name, input_name, chained, coat) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
     obj = bpy.context.object
@@ -70,6 +73,7 @@ for index, (name, input_name, chained) in enumerate(CASES):
         material, tree, bsdf = shader_material(name)
         bsdf.inputs["Metallic"].default_value = 1.0
         bsdf.inputs["Roughness"].default_value = 0.3
+        bsdf.inputs["Coat Weight"].default_value = coat
     if input_name == "Specular Tint":
         bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
     value = TINT if input_name == "Specular Tint" else COLOUR
@@ -101,5 +105,7 @@ for name, (steps, figures) in validate_each(spheres, workdir).items():
         "colours": sorted({c for _, _, c in material.glossy.roughness_map_list()
                            if c is not None}),
         "spatial": sorted(parts(material).derived.spatial),
+        "maps": [Path(p).stem.rsplit("_", 1)[-1]
+                 for _, p, _ in material.glossy.roughness_map_list()],
     }
 result_path.write_text(json.dumps(result, indent=1, default=str))
