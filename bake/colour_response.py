@@ -44,7 +44,7 @@ import numpy as np
 
 from .brdf.principled import Principled
 
-__all__ = ["ColourResponse", "response", "MU_KNOTS", "PARAMETERS"]
+__all__ = ["ColourResponse", "response", "with_metallic", "MU_KNOTS", "PARAMETERS"]
 
 #: The Principled inputs the split applies to (:func:`response`).
 PARAMETERS = ("base_color", "specular_tint")
@@ -137,3 +137,14 @@ def response(model, parameter="base_color") -> ColourResponse | None:
         under = model.lower_weights(mu)[0]
     return ColourResponse(low, high, mu, albedo, float(average), fss[0].copy(),
                           fss[1] - fss[0], model.multiscatter, coat, under)
+
+
+def with_metallic(model, metallic: float):
+    """The Principled glossy part ``model`` at Metallic ``metallic``, or None for
+    any other model. The Principled BSDF is affine in Metallic (the metal's
+    weight is metallic, the specular and diffuse layers' 1 - metallic, under
+    a coat that does not depend on it), so maps at 0 and 1 mixed per pixel
+    give any metallic exactly."""
+    if not isinstance(model, Principled):
+        return None
+    return Principled(**{**model.params, "metallic": float(metallic)})

@@ -10,7 +10,9 @@ so the figures are the colour handling's own error, on every bundled HDRI.
 
 Prints, per roughness and texel colour c (grey, the texture's mean 0.5), the
 worst relative RMS error over the HDRIs of each method against the integral
-at colour c, and the HDRI where it is worst.
+at colour c, and the HDRI where it is worst; then the same for what Glossy
+still approximates: a Multiscatter GGX Glossy BSDF's colour as the factor
+c / m, and a coat tint texture taken at its mean.
 
     .venv/bin/python benchmarks/colour_response.py [--quick]
 """
@@ -58,11 +60,25 @@ def main():
             low = reflected_radiance(brdf.parse(found.low), probe, "cube", normals, views)
             high = reflected_radiance(brdf.parse(found.high), probe, "cube", normals, views)
             at_mean = radiance(MEAN)
+            # What stays approximate: a Multiscatter Glossy BSDF's colour as a factor
+            # (its energy term is not linear in it), and a coat tint at its mean.
+            glossy = f"ggx_multiscatter:roughness={roughness},color="
+            coated = (f"principled:base_color=0.8,metallic=1,roughness={roughness},"
+                      f"coat_weight=1,coat_roughness=0.1,coat_tint=")
+            glossy_mean, coated_mean = (
+                reflected_radiance(brdf.parse(f"{spec}{MEAN}"), probe, "cube", normals, views)
+                for spec in (glossy, coated))
             for c in COLOURS:
                 truth = radiance(c)
                 ratio = relative_rms(at_mean * c / MEAN, truth)
                 split = relative_rms(found.combine(low, high, np.full(3, c), mu), truth)
-                for key, value in (("ratio", ratio), ("split", split)):
+                glossy_truth, coated_truth = (
+                    reflected_radiance(brdf.parse(f"{spec}{c:g}"), probe, "cube", normals,
+                                       views) for spec in (glossy, coated))
+                multiscatter = relative_rms(glossy_mean * c / MEAN, glossy_truth)
+                coat_tint = relative_rms(coated_mean, coated_truth)
+                for key, value in (("ratio", ratio), ("split", split),
+                                   ("multiscatter", multiscatter), ("coat tint", coat_tint)):
                     best = worst.get((roughness, c, key), (-1.0, ""))
                     if value > best[0]:
                         worst[(roughness, c, key)] = (value, hdri.stem)
@@ -77,6 +93,18 @@ def main():
             split, where_split = worst[(roughness, c, "split")]
             print(f"  {roughness:9.2f} {c:7.2f}   {ratio:8.4f} ({where:>8s})   "
                   f"{split:8.4f} ({where_split:>8s})")
+    print(f"\nWhat stays approximate (same pixels and HDRIs): a Multiscatter GGX Glossy "
+          f"BSDF's colour texture as the factor c / m (the energy term's nonlinearity), and a "
+          f"coated metal's (base 0.8, coat 1, coat roughness 0.1) Coat Tint texture taken at "
+          f"its mean m = {MEAN}:")
+    print(f"  {'roughness':>9s} {'texel c':>7s}   {'Multiscatter c/m':>18s}   "
+          f"{'coat tint at m':>18s}")
+    for roughness in roughnesses:
+        for c in COLOURS:
+            ms, where = worst[(roughness, c, "multiscatter")]
+            tint, where_tint = worst[(roughness, c, "coat tint")]
+            print(f"  {roughness:9.2f} {c:7.2f}   {ms:8.4f} ({where:>8s})   "
+                  f"{tint:8.4f} ({where_tint:>8s})")
     ratio_all = max(v for (_, _, k), (v, _) in worst.items() if k == "ratio")
     split_all = max(v for (_, _, k), (v, _) in worst.items() if k == "split")
     print(f"worst: ratio {ratio_all:.4f}, split {split_all:.4f} "

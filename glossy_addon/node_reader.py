@@ -158,7 +158,7 @@ class _Reader:
                 low, high = np.percentile(values, [1.0, 99.0])
                 plan.update(low=float(np.clip(low, 0.0, 1.0)), high=float(np.clip(high, 0, 1)))
         elif (node.name, name) in self.per_pixel and \
-                self.per_pixel[(node.name, name)]["kind"] in ("colour", "tint"):
+                self.per_pixel[(node.name, name)]["kind"] in ("colour", "tint", "metallic"):
             value = own
         else:
             value = own
@@ -266,7 +266,15 @@ class _Reader:
         kind = top.bl_idname
         principled = kind == "ShaderNodeBsdfPrincipled"
         colour_input, part, exact, split = "Color", "glossy", True, False
-        if principled:
+        metallic_varies = principled and self.varying(top, "Metallic")
+        if metallic_varies:
+            # A metallic texture: maps at Metallic 0 and 1 mixed per pixel (the
+            # Principled BSDF is affine in it); the colour scales the diffuse part
+            # and is split for the metal.
+            colour_input, part, exact, split = "Base Color", "diffuse", True, True
+            self.per_pixel[(top.name, "Metallic")] = {"kind": "metallic", "node": top.name,
+                                                      "input": "Metallic"}
+        elif principled:
             colour_input = "Base Color"
             metallic = float(top.inputs["Metallic"].default_value)
             part = None if self.linked(top, "Metallic") or 0.0 < metallic < 1.0 else \
@@ -286,7 +294,7 @@ class _Reader:
                 "exact": exact, "split": split}
         # The specular tint of a metal or dielectric: split like a metal's base colour
         # (one split per material: the base colour's comes first).
-        if principled and part in ("glossy", "diffuse") and \
+        if principled and part in ("glossy", "diffuse") and not metallic_varies and \
                 self.varying(top, "Specular Tint") and \
                 not (split and (top.name, colour_input) in self.per_pixel):
             self.per_pixel[(top.name, "Specular Tint")] = {
@@ -303,14 +311,20 @@ class _Reader:
         ``model``: a colour plan falls back to the factor, a tint plan to its value
         (noted as taken at its value)."""
         from ..bake.brdf.split import split
-        from ..bake.colour_response import response
+        from ..bake.colour_response import response, with_metallic
 
         glossy, _ = split(model)
+        metallic = any(plan["kind"] == "metallic" for plan in self.per_pixel.values())
+        if metallic and with_metallic(glossy, 1.0) is None:  # not a Principled glossy part
+            self.per_pixel = {key: plan for key, plan in self.per_pixel.items()
+                              if plan["kind"] != "metallic"}
+            metallic = False
         for key, plan in list(self.per_pixel.items()):
             if not plan.get("split"):
                 continue
             parameter = "base_color" if plan["kind"] == "colour" else "specular_tint"
-            if glossy is not None and response(glossy, parameter) is not None:
+            part = with_metallic(glossy, 1.0) if metallic else glossy
+            if part is not None and response(part, parameter) is not None:
                 continue
             if plan["kind"] == "colour":
                 plan["split"] = False
@@ -327,6 +341,24 @@ class _Reader:
         d = self.derived
         for (node_name, name), plan in self.per_pixel.items():
             label = f"{node_name}: {name}"
+            if plan["kind"] == "colour" and "metallic" in {p["kind"] for p in
+                                                           self.per_pixel.values()}:
+                mean = np.maximum(np.clip(d.inputs[label], 0.0, 1.0), COLOUR_FLOOR)
+                plan["mean"] = [float(c) for c in mean]
+                d.approximated.append(
+                    f"{label}: applied per pixel as a factor of the diffuse part baked at "
+                    f"{_fmt(mean)} (exact) and to the metal through maps baked at base colours "
+                    f"0 and 1{' (exact: bake.colour_response)' if plan['split'] else ''}")
+                d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+                continue
+            if plan["kind"] == "metallic":
+                plan["mean"] = float(np.clip(np.ravel(d.inputs[label])[0], 0.0, 1.0))
+                d.approximated.append(
+                    f"{label}: applied per pixel: maps baked at Metallic 0 and 1 mixed by it "
+                    f"and the diffuse part scaled by (1 - metallic) / (1 - {plan['mean']:.3g}) "
+                    "(exact: the Principled BSDF is affine in it)")
+                d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+                continue
             if plan["kind"] == "colour":
                 mean = np.maximum(np.clip(d.inputs[label], 0.0, 1.0), COLOUR_FLOOR)
                 plan["mean"] = [float(c) for c in mean]

@@ -11,7 +11,7 @@ import math
 
 import bpy
 
-from .spatial import COAT
+from .spatial import COAT, DIELECTRIC, HIGH, LOW, METAL
 
 GROUP_VERSION = 1
 
@@ -214,7 +214,7 @@ def _group_node(b, tree, values):
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
                  runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
-                 roughness_maps=None, colour_split=None):
+                 roughness_maps=None, map_inputs=None):
     """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
     it the active Material Output's surface.
 
@@ -241,13 +241,16 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     ``spatial``: the user's sockets applied per pixel (glossy_addon.spatial):
     {"normal": socket} replaces the geometric normal of every lookup;
     {"glossy" | "diffuse": (colour socket, baked mean (3,))} multiplies that part
-    by socket / mean. ``roughness_maps``: (roughness socket or None,
-    [(roughness or None, colour or None, image, meta), ...]): the environment
+    by socket / mean; {"metallic": (socket, baked mean)} multiplies the diffuse
+    part by (1 - socket) / (1 - mean). ``roughness_maps``: (roughness socket or
+    None, [(roughness or None, key or None, image, meta), ...]): the environment
     lookups of maps baked at roughness knots, blended per pixel by the
-    socket's value (:func:`_roughness_blend`), and / or at base colours 0 and 1,
-    combined by ``colour_split`` = (colour socket, {roughness or None:
-    bake.colour_response.ColourResponse}) as (L_0 + c (L_1 - L_0)) m(c, mu)
-    (:func:`_colour_split`); ``image`` / ``meta`` are then unused.
+    socket's value (:func:`_roughness_blend`), and per knot the maps of
+    glossy_addon.spatial.map_variants's keys, combined with ``map_inputs`` =
+    {"colour": socket, "responses": {roughness or None:
+    bake.colour_response.ColourResponse}, "metallic": socket} (a split colour:
+    :func:`_colour_split`; a metallic texture: the maps at Metallic 0 and 1
+    mixed by it); ``image`` / ``meta`` are then unused.
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -259,7 +262,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     spatial = spatial or {}
     b = _Builder(tree)
     if roughness_maps is not None:
-        value = _combined_maps(b, *roughness_maps, colour_split)
+        value = _combined_maps(b, *roughness_maps, map_inputs)
     else:
         value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
@@ -290,6 +293,11 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
             diffuse_value = _add(b, diffuse_value, lamp_diffuse)
         if "diffuse" in spatial:
             diffuse_value = _multiply(b, diffuse_value, _factor(b, *spatial["diffuse"]))
+        if "metallic" in spatial:
+            socket, mean = spatial["metallic"]
+            weight = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math(
+                "MINIMUM", b.math("MAXIMUM", socket, 0.0), 1.0)), max(1.0 - float(mean), 1e-3))
+            diffuse_value = _multiply(b, diffuse_value, b.combine(weight, weight, weight))
         if diffuse_curve is not None:
             value = _add(b, value, _multiply(b, _view_curve(b, *diffuse_curve), diffuse_value))
         elif fresnel_ior > 1.0:
@@ -393,20 +401,28 @@ def _factor(b, socket, mean):
     return b.vec("DIVIDE", socket, b.combine(*(float(max(c, 1e-6)) for c in mean)))
 
 
-def _combined_maps(b, roughness, maps, colour_split=None):
+def _combined_maps(b, roughness, maps, inputs=None):
     """The value of build_lookup's ``roughness_maps`` (see there): per roughness
-    knot the map's lookup, or the colour split of its two maps; then the
+    knot the map's lookup, or its maps combined (the colour split of the metal's,
+    mixed with the map at Metallic 0 by the metallic socket); then the
     roughness blend over the knots (one knot: its value)."""
     knots = sorted({r for r, _, _, _ in maps}, key=lambda r: -1.0 if r is None else r)
     values = []
     for knot in knots:
-        lookups = {c: _environment(b, image, meta) for r, c, image, meta in maps if r == knot}
+        lookups = {key: _environment(b, image, meta)
+                   for r, key, image, meta in maps if r == knot}
         if None in lookups:
             values.append(lookups[None])
+            continue
+        if LOW in lookups:
+            metal = _colour_split(b, lookups[LOW], lookups[HIGH], inputs["colour"],
+                                  inputs["responses"][knot], lookups.get(COAT))
         else:
-            colour, responses = colour_split
-            values.append(_colour_split(b, lookups[0.0], lookups[1.0], colour,
-                                        responses[knot], lookups.get(COAT)))
+            metal = lookups[METAL]
+        if DIELECTRIC in lookups:
+            metallic = b.math("MINIMUM", b.math("MAXIMUM", inputs["metallic"], 0.0), 1.0)
+            metal = b.mix(metallic, lookups[DIELECTRIC], metal)
+        values.append(metal)
     if len(knots) == 1:
         return values[0]
     return _roughness_blend(b, roughness, knots, values)

@@ -262,9 +262,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "(a material shared by objects with different probes: each reflects its own)")
     roughness_maps: bpy.props.StringProperty(
         name="Roughness Maps", description="Maps baked at roughness knots for a roughness "
-        "texture and/or at base colours 0 and 1 for a metal's colour texture (From "
-        "Material, JSON [[roughness or null, path, colour or null], ...]): combined per "
-        "pixel")
+        "texture and/or for a colour or metallic texture (From Material, JSON "
+        "[[roughness or null, path, key or null], ...]): combined per pixel")
     diffuse_path: bpy.props.StringProperty(name="Baked Irradiance", subtype="FILE_PATH")
     bake_hash: bpy.props.StringProperty(name="Bake Hash")
     bake_owner: bpy.props.StringProperty(
@@ -375,8 +374,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         return tuple(float(c) for c in self.diffuse)
 
     def roughness_map_list(self) -> list:
-        """[(roughness or None, path, colour or None), ...] of the maps a From Material
-        lookup combines per pixel (glossy_addon.spatial; empty: one map)."""
+        """[(roughness or None, path, key or None), ...] of the maps a From Material
+        lookup combines per pixel (glossy_addon.spatial.map_variants; empty: one
+        map)."""
         import json
 
         def number(value):
@@ -384,7 +384,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
 
         try:
             return [(number(entry[0]), str(entry[1]),
-                     number(entry[2]) if len(entry) > 2 else None)
+                     None if len(entry) < 3 or entry[2] is None else str(entry[2]))
                     for entry in json.loads(self.roughness_maps or "[]")]
         except (ValueError, TypeError, IndexError):
             return []

@@ -46,9 +46,10 @@ ROUGHNESS_RATIO = 1.25
 ROUGHNESS_SPREAD = 1.05
 #: At most this many maps (each a lookup in the shader).
 MAX_KNOTS = 8
-#: The colour key of a split's map of the coat alone (map_variants; its file
-#: ends in ``_coat``).
-COAT = -1.0
+#: Keys of the maps a From Material bake writes besides one plain map
+#: (:func:`map_variants`; each file ends in ``_<key>``): a split colour at 0 and
+#: 1, the coat alone, Metallic 0 and Metallic 1 (unsplit).
+LOW, HIGH, COAT, DIELECTRIC, METAL = "c0", "c1", "coat", "dielectric", "metal"
 #: Roughness knots start no lower than this (Cycles' mirror threshold).
 MIN_ROUGHNESS = 0.01
 
@@ -99,37 +100,67 @@ def split_plan(derived) -> tuple:
     return None, None
 
 
-def colour_responses(parts) -> dict:
-    """{roughness knot or None: bake.colour_response.ColourResponse} of a From
-    Material glossy part with an input split per pixel (:func:`split_plan`); {}
-    where there is none (or the split does not apply)."""
+def _split_knots(parts, colour=True) -> list:
+    """[(roughness or None, dielectric spec or None, glossy model to split or keep,
+    ColourResponse or None), ...] per roughness knot (one None knot without a
+    roughness texture), or [] where no map splits: the dielectric spec where a
+    metallic texture mixes maps at Metallic 0 and 1 (the model is then the
+    metal at 1), the response where a colour is split."""
     from ..bake import brdf
-    from ..bake.colour_response import response
+    from ..bake.colour_response import response, with_metallic
 
+    if not colour or parts.derived is None:
+        return []
     parameter, plan = split_plan(parts.derived)
-    if plan is None:
-        return {}
-    out = {}
+    metallic = "metallic" in parts.derived.spatial
+    if plan is None and not metallic:
+        return []
+    out = []
     for roughness, spec in parts.roughness_set or [(None, parts.glossy_spec)]:
-        found = response(brdf.parse(spec), parameter)
-        if found is None:
-            return {}
-        out[roughness] = found
+        model, dielectric = brdf.parse(spec), None
+        if metallic:
+            dielectric = with_metallic(model, 0.0)
+            model = with_metallic(model, 1.0)
+            if model is None:
+                return []
+            dielectric = dielectric.spec
+        found = response(model, parameter) if plan is not None else None
+        if plan is not None and found is None and not metallic:
+            return []
+        out.append((roughness, dielectric, model, found))
     return out
 
 
+def colour_responses(parts) -> dict:
+    """{roughness knot or None: bake.colour_response.ColourResponse} of a From
+    Material glossy part with an input split per pixel (:func:`split_plan`; the
+    metal at Metallic 1 where a metallic texture mixes maps); {} where there is
+    none (or the split does not apply)."""
+    return {r: found for r, _, _, found in _split_knots(parts) if found is not None}
+
+
 def map_variants(parts, colour=True) -> list:
-    """[(roughness or None, colour or None, glossy spec), ...]: the maps a From
-    Material bake writes, one per roughness knot (Parts.roughness_set) and, with
-    ``colour`` and a split base colour (:func:`colour_responses`), one at base
-    colour 0 and one at 1 for each (and one of the coat alone, colour
-    :data:`COAT`, where the split needs it); [] for one map of Parts.glossy_spec."""
-    responses = colour_responses(parts) if colour else {}
-    if not responses:
+    """[(roughness or None, key or None, glossy spec), ...]: the maps a From Material
+    bake writes, one per roughness knot (Parts.roughness_set) and, with
+    ``colour``, per knot: the map at Metallic 0 (:data:`DIELECTRIC`) where a
+    metallic texture mixes maps, then either the maps of a split colour
+    (:data:`LOW` and :data:`HIGH`, at colours 0 and 1, and :data:`COAT`, the
+    coat alone, where needed) or the metal's map (:data:`METAL`); [] for one
+    map of Parts.glossy_spec."""
+    knots = _split_knots(parts, colour)
+    if not knots:
         return [(r, None, spec) for r, spec in parts.roughness_set]
-    return [(r, c, spec) for r, found in responses.items()
-            for c, spec in ((0.0, found.low), (1.0, found.high), (COAT, found.coat))
-            if spec is not None]
+    out = []
+    for roughness, dielectric, model, found in knots:
+        if dielectric is not None:
+            out.append((roughness, DIELECTRIC, dielectric))
+        if found is not None:
+            out += [(roughness, key, spec) for key, spec in
+                    ((LOW, found.low), (HIGH, found.high), (COAT, found.coat))
+                    if spec is not None]
+        else:
+            out.append((roughness, METAL, model.spec))
+    return out
 
 
 def input_socket(material, node_name: str, input_name: str):
@@ -146,8 +177,8 @@ def input_socket(material, node_name: str, input_name: str):
 
 def lookup_sockets(material, spatial: dict) -> dict:
     """build_lookup's ``spatial`` for ``material``: {"normal": socket} and
-    {part: (colour socket, mean)} for the inputs recorded in Derived.spatial
-    whose links still exist in ``material``."""
+    {part: (colour socket, mean)} and {"metallic": (socket, mean)} for the inputs
+    recorded in Derived.spatial whose links still exist in ``material``."""
     out = {}
     normal = spatial.get("normal")
     if normal:
@@ -159,4 +190,9 @@ def lookup_sockets(material, spatial: dict) -> dict:
         socket = input_socket(material, colour["node"], colour["input"])
         if socket is not None:
             out[colour["part"]] = (socket, colour["mean"])
+    metallic = spatial.get("metallic")
+    if metallic:
+        socket = input_socket(material, metallic["node"], metallic["input"])
+        if socket is not None:
+            out["metallic"] = (socket, metallic["mean"])
     return out

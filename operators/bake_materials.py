@@ -21,6 +21,10 @@ from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.spatial import (
     COAT,
+    DIELECTRIC,
+    HIGH,
+    LOW,
+    METAL,
     colour_responses,
     input_socket,
     lookup_sockets,
@@ -233,8 +237,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     order = sorted({r for r, _, _ in variants if r is not None})
                     for roughness, colour, _ in variants:
                         suffix = (f"_r{order.index(roughness)}" if roughness is not None
-                                  else "") + ("" if colour is None else "_coat"
-                                              if colour == COAT else f"_c{colour:g}")
+                                  else "") + (f"_{colour}" if colour is not None else "")
                         knot_path = ownership.claim(folder, stem,
                                                     f"_{settings.method}{suffix}.exr",
                                                     material, taken)
@@ -338,8 +341,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     rows, reason = baked.meta["size"], baked.meta["size_reason"]
             if knots:
                 mean = float(brdf.parse(spec).params.get("roughness", 0.0))
-                # The map recorded as the bake: the white one (colour 1) nearest the mean.
-                nearest = min((k for k in knots if k[3] in (None, 1.0)),
+                # The map recorded as the bake: a plain, white or metal one nearest the
+                # mean roughness.
+                nearest = min((k for k in knots if k[3] in (None, HIGH, METAL)),
                               key=lambda knot: abs((knot[0] or mean) - mean))
                 path, (image, atlas_meta) = nearest[1], nearest[2]
                 rows = max(sizes)
@@ -348,11 +352,14 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 if roughnesses:
                     what.append(f"roughness {', '.join(f'{r:.3g}' for r in roughnesses)} for "
                                 f"the roughness texture")
-                if any(k[3] is not None for k in knots):
+                keys = {k[3] for k in knots}
+                if DIELECTRIC in keys:
+                    what.append("Metallic 0 and 1 for the metallic texture")
+                if LOW in keys:
                     _, plan = split_plan(material_parts(material).derived)
-                    what.append(f"{plan['input'].lower()}s 0 and 1"
-                                + (" and the coat alone" if any(k[3] == COAT for k in knots)
-                                   else "") + f" for the per-pixel {plan['input']}")
+                    what.append(f"{plan['input']} 0 and 1"
+                                + (" and the coat alone" if COAT in keys else "")
+                                + f" for the per-pixel {plan['input']}")
                 reason = (f"{len(knots)} maps at {' and '.join(what)}, "
                           f"{min(sizes)}-{max(sizes)} rows "
                           f"({baked.meta['size_reason'].split(':')[-1].strip()})")
@@ -427,37 +434,46 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
 
     @staticmethod
     def _combined_maps(material, found, image, spatial):
-        """build_lookup's (roughness_maps, colour_split) for the maps a From Material
-        bake wrote per roughness knot and base colour (glossy_addon.spatial), or
-        (None, None) where the bake is one map or the user's sockets are gone (the
-        one map is then used, the colour as a factor). Removes the colour factor
-        from ``spatial`` where the split replaces it."""
+        """build_lookup's (roughness_maps, map_inputs) for the maps a From Material
+        bake wrote per roughness knot, split colour and metallic
+        (glossy_addon.spatial.map_variants), or (None, None) where the bake is one
+        map or the user's sockets are gone (the one map is then used, the colour
+        as a factor). Removes the glossy colour factor from ``spatial`` where a
+        split replaces it."""
         knots = material.glossy.roughness_map_list()
         if not knots or image is None or found.derived is None:
             return None, None
-        roughness_socket = colour_socket = responses = None
+        keys = {key for _, _, key in knots}
+        inputs = {"colour": None, "responses": {}, "metallic": None}
+        roughness_socket = None
         if any(r is not None for r, _, _ in knots):
             texture = found.derived.spatial.get("roughness")
             roughness_socket = input_socket(material, texture["node"], texture["input"]) \
                 if texture else None
             if roughness_socket is None:
                 return None, None
-        if any(c is not None for _, _, c in knots):
+        if LOW in keys:
             _, plan = split_plan(found.derived)
-            colour_socket = input_socket(material, plan["node"], plan["input"]) \
+            inputs["colour"] = input_socket(material, plan["node"], plan["input"]) \
                 if plan else None
-            responses = colour_responses(found)
-            if colour_socket is None or set(responses) != {r for r, _, _ in knots}:
+            inputs["responses"] = colour_responses(found)
+            if inputs["colour"] is None or \
+                    set(inputs["responses"]) != {r for r, _, _ in knots}:
+                return None, None
+        if DIELECTRIC in keys:
+            plan = found.derived.spatial.get("metallic")
+            inputs["metallic"] = input_socket(material, plan["node"], plan["input"]) \
+                if plan else None
+            if inputs["metallic"] is None:
                 return None, None
         maps = []
-        for roughness, knot_path, colour in knots:
+        for roughness, knot_path, key in knots:
             _, knot_meta = exr.read(knot_path)
-            maps.append((roughness, colour, load_atlas(
+            maps.append((roughness, key, load_atlas(
                 knot_path, precision=knot_meta.get("precision", "float32")), knot_meta))
-        if colour_socket is None:
-            return (roughness_socket, maps), None
-        spatial.pop("glossy", None)
-        return (roughness_socket, maps), (colour_socket, responses)
+        if LOW in keys:
+            spatial.pop("glossy", None)
+        return (roughness_socket, maps), inputs
 
     def execute(self, context):
         obj, _ = _object_with_probe(context)
@@ -505,14 +521,14 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 weighting = found.weighting
                 spatial = lookup_sockets(material, found.derived.spatial) \
                     if found.derived is not None else {}
-                roughness_maps, colour_split = self._combined_maps(material, found, image,
-                                                                   spatial)
+                roughness_maps, map_inputs = self._combined_maps(material, found, image,
+                                                                 spatial)
                 build_lookup(material, image, meta, diffuse,
                              weighting[1] if weighting[0] == "fresnel" else 0.0, lamp_terms,
                              runtime=runtime, tangent=tangent,
                              diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
                              spatial=spatial, roughness_maps=roughness_maps,
-                             colour_split=colour_split)
+                             map_inputs=map_inputs)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1

@@ -85,7 +85,7 @@ def test_a_textured_metal_s_colour_is_split_exactly_and_stays_close_to_cycles(te
     assert "Base Color: applied per pixel to the metal through maps baked at base colours " \
            "0 and 1" in notes
     # Two maps (base colour 0 and 1) at each roughness knot.
-    assert mapped["colours"] == [0.0, 1.0] and len(mapped["knots"]) >= 2
+    assert mapped["colours"] == ["c0", "c1"] and len(mapped["knots"]) >= 2
     assert mapped["maps"] == 2 * len(mapped["knots"])
     print(f"\nmetal, relative RMS against Cycles: textured {mapped['glossy']:.4f} (native "
           f"{mapped['native']:.4f}), without textures {plain['glossy']:.4f} (native "
@@ -108,10 +108,10 @@ def colour_split(tmp_path_factory, hdri_dir):
 def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_split):
     direct, chain = colour_split["Direct"], colour_split["Chain"]
     for name in ("Direct", "Chain", "Tint Direct", "Tint Chain", "Mix Direct", "Mix Chain",
-                 "Coat Direct", "Coat Chain"):
+                 "Coat Direct", "Coat Chain", "Metallic Chain", "Half Direct", "Half Chain"):
         assert [s[0] for s in colour_split[name]["steps"]] == [["FINISHED"]] * 4, \
             colour_split[name]
-    assert chain["colours"] == [0.0, 1.0] and direct["colours"] == []
+    assert chain["colours"] == ["c0", "c1"] and direct["colours"] == []
     print(f"\nmetal 0.3, dark green: typed in {direct['glossy']:.4f}, through a chain baked "
           f"grey and split per pixel {chain['glossy']:.4f} (native {direct['native']:.4f}; "
           f"Cycles noise {direct['noise']:.4f})")
@@ -127,7 +127,7 @@ def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_
     # (the grey unlinked tint instead measured 4.08%), so this checks the path,
     # tests/bake/test_colour_response.py the exactness.
     tint, typed = colour_split["Tint Chain"], colour_split["Tint Direct"]
-    assert tint["colours"] == [0.0, 1.0]
+    assert tint["colours"] == ["c0", "c1"]
     assert abs(tint["glossy"] - typed["glossy"]) < 2 * typed["noise"]
     # A Mix Shader of a Diffuse BSDF (colour through the chain, grey unlinked) and a
     # Glossy BSDF: the diffuse part's factor (measured 3.46% both ways; the grey
@@ -144,3 +144,20 @@ def test_a_metal_colour_from_a_node_chain_renders_as_the_colour_typed_in(colour_
     coated, coated_typed = colour_split["Coat Chain"], colour_split["Coat Direct"]
     assert coated["maps"] == ["c0", "c1", "coat"]
     assert coated["glossy"] < coated_typed["glossy"] + 2 * coated_typed["noise"]
+
+
+def test_a_metallic_texture_mixes_maps_at_metallic_0_and_1(colour_split):
+    # Metallic 1 and the dark green both through chains whose unlinked values are 0
+    # and grey: the bake's spec is a grey dielectric, the lookup mixes the maps at
+    # Metallic 0 and 1 per pixel (the metal's colour split) and scales the diffuse
+    # part by (1 - metallic) / (1 - 0). Measured 3.52%, as "Direct" (3.53%).
+    metal, direct = colour_split["Metallic Chain"], colour_split["Direct"]
+    assert metal["maps"] == ["dielectric", "c0", "c1"]
+    assert metal["spatial"] == ["colour", "metallic"]
+    assert abs(metal["glossy"] - direct["glossy"]) < 2 * direct["noise"]
+    # A half metal (Metallic 0.5) through a chain whose unlinked value is 0, against
+    # the same typed in: both measured 2.33% (native 5.35%).
+    half, typed = colour_split["Half Chain"], colour_split["Half Direct"]
+    assert half["maps"] == ["dielectric", "metal"]
+    assert abs(half["glossy"] - typed["glossy"]) < 2 * typed["noise"]
+    assert half["glossy"] < half["native"]

@@ -53,9 +53,9 @@ def test_colour_splits_where_bake_colour_response_applies(plans):
     # A coated metal: maps of the metal at colours 0 and 1 and of the coat alone.
     coated = plans["Coated Metal"]
     assert coated["spatial"]["colour"]["split"] is True
-    assert coated["maps"] == [[None, 0.0], [None, 1.0], [None, -1.0]]
+    assert coated["maps"] == [[None, "c0"], [None, "c1"], [None, "coat"]]
     # A plastic's Specular Tint from a chain: maps at tints 0 and 1.
-    assert plans["Tinted Plastic"]["maps"] == [[None, 0.0], [None, 1.0]]
+    assert plans["Tinted Plastic"]["maps"] == [[None, "c0"], [None, "c1"]]
     assert "tint" in plans["Tinted Plastic"]["spatial"]
     # A metal with both: the base colour is split, the tint taken at its value.
     both = plans["Metal Colour And Tint"]

@@ -11,7 +11,11 @@ pixel. "Tint Direct" and "Tint Chain" do the same with the Specular Tint (the
 F82 edge tint, TINT) of a light grey metal; "Mix Direct" and "Mix Chain" with
 the Color of a Diffuse BSDF mixed half and half with a GGX 0.3 Glossy BSDF
 (the diffuse part's factor in a Mix tree); "Coat Direct" and "Coat Chain" as
-the first two under a coat (Coat Weight 1: a third map of the coat alone).
+the first two under a coat (Coat Weight 1: a third map of the coat alone);
+"Metallic Chain" as "Chain" with Metallic 1 also through a chain whose
+unlinked value is 0 (maps at Metallic 0 and 1 mixed per pixel; compare with
+"Direct"); "Half Direct" and "Half Chain" a half metal (Metallic 0.5 typed in,
+or through the chain) of colour COLOUR.
 Each sphere is captured, baked,
 attached and validated alone; the report's errors against Cycles are
 recorded. With the split
@@ -53,7 +57,9 @@ spheres = {}
 CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0),
          ("Tint Direct", "Specular Tint", False, 0.0), ("Tint Chain", "Specular Tint", True, 0.0),
          ("Mix Direct", "Color", False, 0.0), ("Mix Chain", "Color", True, 0.0),
-         ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0))
+         ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0),
+         ("Metallic Chain", "Base Color", True, 0.0), ("Half Direct", "Metallic", False, 0.0),
+         ("Half Chain", "Metallic", True, 0.0))
 for index, (name, input_name, chained, coat) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
@@ -77,7 +83,23 @@ for index, (name, input_name, chained, coat) in enumerate(CASES):
     if input_name == "Specular Tint":
         bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
     value = TINT if input_name == "Specular Tint" else COLOUR
-    if chained:
+    if name.startswith(("Metallic", "Half")):
+        # Metallic (1, or 0.5 for "Half") typed in or through a chain (a Value node
+        # plus 0) whose unlinked value is 0: the bake's spec is then a dielectric.
+        metallic = 0.5 if name.startswith("Half") else 1.0
+        bsdf.inputs["Base Color"].default_value = (*COLOUR, 1.0)
+        bsdf.inputs["Metallic"].default_value = metallic
+        if chained:
+            bsdf.inputs["Metallic"].default_value = 0.0
+            number = tree.nodes.new("ShaderNodeValue")
+            number.outputs[0].default_value = metallic
+            add = tree.nodes.new("ShaderNodeMath")
+            add.inputs[1].default_value = 0.0
+            tree.links.new(number.outputs[0], add.inputs[0])
+            tree.links.new(add.outputs[0], bsdf.inputs["Metallic"])
+    if input_name == "Metallic":
+        pass  # the colour typed in
+    elif chained:
         bsdf.inputs[input_name].default_value = (*GREY, 1.0)
         rgb = tree.nodes.new("ShaderNodeRGB")
         rgb.outputs[0].default_value = (*value, 1.0)
