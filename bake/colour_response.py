@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .brdf.cycles import GGX, MultiscatterGGX
 from .brdf.principled import Principled
 
 __all__ = ["ColourResponse", "response", "with_metallic", "MU_KNOTS", "PARAMETERS"]
@@ -58,13 +59,14 @@ class ColourResponse:
     """The two single-scatter specs and the energy terms of the module docstring.
 
     ``low`` / ``high``: canonical bake.brdf specs at base colour 0 and 1
-    (Multiscatter off); ``mu`` (K,) view cosines and ``albedo`` (K,) E(mu) there;
-    ``average``: E_avg; ``offset`` / ``slope`` (3,): Fss(c) = offset + slope c
+    (Multiscatter off; ``low`` None: a black map, as for a Glossy BSDF);
+    ``mu`` (K,) view cosines and ``albedo`` (K,) E(mu) there; ``average``:
+    E_avg; ``offset`` / ``slope`` (3,): Fss(c) = offset + slope c
     per channel; ``multiscatter``: False makes m = 1; ``coat``: the spec of the
     coat alone and ``under`` (K, 3) W(mu) at ``mu`` (None: no coat).
     """
 
-    low: str
+    low: str | None
     high: str
     mu: np.ndarray
     albedo: np.ndarray
@@ -91,6 +93,7 @@ class ColourResponse:
         (..., 3) from the maps' values ``low`` / ``high`` (and ``coat``, C, where
         :attr:`coat` is set; else C = 0 and W = 1) (..., 3) at view cosines mu (...)."""
         colour = np.clip(np.asarray(colour, dtype=np.float64), 0.0, 1.0)
+        low = 0.0 if low is None else low
         value = (low + colour * (high - low)) * self.energy(colour, mu)
         if self.coat is None:
             return value
@@ -102,9 +105,10 @@ class ColourResponse:
 def response(model, parameter="base_color") -> ColourResponse | None:
     """The ColourResponse of a glossy part ``model`` (a bake.brdf model) to its
     ``parameter`` ("base_color" or "specular_tint", the colour c of the module
-    docstring), or None where the split does not apply: anything but a
-    Principled BSDF, for the base colour a partly or not metallic one (Metallic
-    < 1: the base colour also weights the diffuse layer), for the specular tint
+    docstring; a Multiscatter GGX Glossy BSDF's Color for "base_color"), or None
+    where the split does not apply: anything but a Principled BSDF, for the
+    base colour a partly or not metallic one (Metallic < 1: the base colour
+    also weights the diffuse layer), for the specular tint
     a partly metallic one (the metal and the dielectric layers would need two
     energy terms) or a dielectric without a specular layer (IOR 1).
 
@@ -113,6 +117,13 @@ def response(model, parameter="base_color") -> ColourResponse | None:
     in the same way, so both are exact as the base colour is. A dielectric's
     diffuse layer below depends on the tint too (its weight 1 - max_c of the
     specular albedo): that is the diffuse part's, not this split's."""
+    if isinstance(model, MultiscatterGGX) and parameter == "base_color":
+        # A Multiscatter Glossy BSDF: f = c f_GGX m(c, mu) with Fss = c (its Color is
+        # its Fresnel): the single-scatter white map times c, then m.
+        white = GGX(**{**model.params, "color": 1.0}).spec
+        mu = np.linspace(0.0, 1.0, MU_KNOTS) ** 2
+        return ColourResponse(None, white, mu, np.interp(mu, model.e_mu, model.e_value),
+                              float(model.e_avg), np.zeros(3), np.ones(3), True)
     if not isinstance(model, Principled):
         return None
     if parameter == "base_color" and model.metallic != 1.0:

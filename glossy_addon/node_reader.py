@@ -287,7 +287,9 @@ class _Reader:
         elif kind == "ShaderNodeBsdfDiffuse":
             part = "diffuse"
         else:
-            exact = top.distribution != "MULTI_GGX"
+            # Multiscatter GGX's energy term is not linear in the colour: split
+            # (a white map times c and the energy term, bake.colour_response).
+            split = top.distribution == "MULTI_GGX"
         if part is not None and self.varying(top, colour_input):
             self.per_pixel[(top.name, colour_input)] = {
                 "kind": "colour", "node": top.name, "input": colour_input, "part": part,
@@ -362,6 +364,13 @@ class _Reader:
             if plan["kind"] == "colour":
                 mean = np.maximum(np.clip(d.inputs[label], 0.0, 1.0), COLOUR_FLOOR)
                 plan["mean"] = [float(c) for c in mean]
+                if plan["split"] and plan["input"] == "Color":  # a Multiscatter Glossy BSDF
+                    d.approximated.append(
+                        f"{label}: applied per pixel through a white map times the colour and "
+                        "the Multiscatter energy term (exact: bake.colour_response; the Hybrid "
+                        f"and Runtime Sampling methods scale the part baked at {_fmt(mean)})")
+                    d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+                    continue
                 if plan["split"]:
                     d.approximated.append(
                         f"{label}: applied per pixel to the metal through maps baked at base "

@@ -414,8 +414,8 @@ def _combined_maps(b, roughness, maps, inputs=None):
         if None in lookups:
             values.append(lookups[None])
             continue
-        if LOW in lookups:
-            metal = _colour_split(b, lookups[LOW], lookups[HIGH], inputs["colour"],
+        if HIGH in lookups:
+            metal = _colour_split(b, lookups.get(LOW), lookups[HIGH], inputs["colour"],
                                   inputs["responses"][knot], lookups.get(COAT))
         else:
             metal = lookups[METAL]
@@ -430,7 +430,8 @@ def _combined_maps(b, roughness, maps, inputs=None):
 
 def _colour_split(b, low, high, colour, found, coat=None):
     """C + W(mu) (low + c (high - low)) m(c, mu) per channel, c the user's colour
-    clamped to [0, 1], C the ``coat`` lookup and W(mu) an RGB curve of
+    clamped to [0, 1] (``low`` None: a black map), C the ``coat`` lookup and
+    W(mu) an RGB curve of
     ``found.under`` (C = 0, W = 1 without a coat), and m the Multiscatter
     energy term of ``found`` (a bake.colour_response.ColourResponse, whose
     ``combine`` is this in NumPy):
@@ -438,7 +439,8 @@ def _colour_split(b, low, high, colour, found, coat=None):
     Fss = offset + slope c, E(mu) an RGB curve over mu = n.v."""
     c = b.vec("MINIMUM", b.vec("MAXIMUM", colour, b.combine(0.0, 0.0, 0.0)),
               b.combine(1.0, 1.0, 1.0))
-    value = b.vec("ADD", low, b.vec("MULTIPLY", c, b.vec("SUBTRACT", high, low)))
+    value = b.vec("MULTIPLY", c, high) if low is None else \
+        b.vec("ADD", low, b.vec("MULTIPLY", c, b.vec("SUBTRACT", high, low)))
     if found.multiscatter:
         value = b.vec("MULTIPLY", value, _energy_term(b, c, found))
     if coat is None:

@@ -23,7 +23,6 @@ from ..glossy_addon.spatial import (
     COAT,
     DIELECTRIC,
     HIGH,
-    LOW,
     METAL,
     colour_responses,
     input_socket,
@@ -355,7 +354,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 keys = {k[3] for k in knots}
                 if DIELECTRIC in keys:
                     what.append("Metallic 0 and 1 for the metallic texture")
-                if LOW in keys:
+                if HIGH in keys:
                     _, plan = split_plan(material_parts(material).derived)
                     what.append(f"{plan['input']} 0 and 1"
                                 + (" and the coat alone" if COAT in keys else "")
@@ -452,7 +451,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if texture else None
             if roughness_socket is None:
                 return None, None
-        if LOW in keys:
+        if HIGH in keys:
             _, plan = split_plan(found.derived)
             inputs["colour"] = input_socket(material, plan["node"], plan["input"]) \
                 if plan else None
@@ -471,7 +470,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             _, knot_meta = exr.read(knot_path)
             maps.append((roughness, key, load_atlas(
                 knot_path, precision=knot_meta.get("precision", "float32")), knot_meta))
-        if LOW in keys:
+        if HIGH in keys:
             spatial.pop("glossy", None)
         return (roughness_socket, maps), inputs
 

@@ -61,3 +61,8 @@ def test_colour_splits_where_bake_colour_response_applies(plans):
     both = plans["Metal Colour And Tint"]
     assert both["spatial"]["colour"]["split"] is True and "tint" not in both["spatial"]
     assert any("Specular Tint: driven by 'Gamma'" in line for line in both["approximated"])
+    # A Multiscatter GGX Glossy BSDF's colour texture: a white map times the colour
+    # and the energy term (bake.colour_response), no map at colour 0.
+    multiscatter = plans["Multiscatter Glossy"]
+    assert multiscatter["maps"] == [[None, "c1"]]
+    assert any("white map times the colour" in line for line in multiscatter["approximated"])

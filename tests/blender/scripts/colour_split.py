@@ -15,7 +15,9 @@ the first two under a coat (Coat Weight 1: a third map of the coat alone);
 "Metallic Chain" as "Chain" with Metallic 1 also through a chain whose
 unlinked value is 0 (maps at Metallic 0 and 1 mixed per pixel; compare with
 "Direct"); "Half Direct" and "Half Chain" a half metal (Metallic 0.5 typed in,
-or through the chain) of colour COLOUR.
+or through the chain) of colour COLOUR; "Glossy Direct" and "Glossy Chain"
+the Color of a Multiscatter GGX Glossy BSDF of roughness 0.5 (a white map
+times the colour and the energy term).
 Each sphere is captured, baked,
 attached and validated alone; the report's errors against Cycles are
 recorded. With the split
@@ -47,7 +49,7 @@ COLOUR = (0.06, 0.25, 0.05)
 TINT = (0.9, 0.3, 0.05)
 GREY = (0.8, 0.8, 0.8)
 if RATIO:
-    spatial.colour_responses = lambda found: {}  # the bake and attach then use the ratio
+    spatial._split_knots = lambda parts, colour=True: []  # no split: the c / mean factor
 
 validation_scene(hdri, workdir, 64)
 result = {}
@@ -59,7 +61,8 @@ CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0
          ("Mix Direct", "Color", False, 0.0), ("Mix Chain", "Color", True, 0.0),
          ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0),
          ("Metallic Chain", "Base Color", True, 0.0), ("Half Direct", "Metallic", False, 0.0),
-         ("Half Chain", "Metallic", True, 0.0))
+         ("Half Chain", "Metallic", True, 0.0), ("Glossy Direct", "Glossy", False, 0.0),
+         ("Glossy Chain", "Glossy", True, 0.0))
 for index, (name, input_name, chained, coat) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
@@ -75,6 +78,11 @@ for index, (name, input_name, chained, coat) in enumerate(CASES):
         tree.links.new(bsdf.outputs[0], mix.inputs[1])
         tree.links.new(glossy_bsdf.outputs[0], mix.inputs[2])
         tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    elif input_name == "Glossy":  # a Multiscatter GGX Glossy BSDF's Color
+        material, tree, bsdf = shader_material(name, "ShaderNodeBsdfGlossy")
+        bsdf.distribution = "MULTI_GGX"
+        bsdf.inputs["Roughness"].default_value = 0.5
+        input_name = "Color"
     else:
         material, tree, bsdf = shader_material(name)
         bsdf.inputs["Metallic"].default_value = 1.0

@@ -154,9 +154,16 @@ def metal_colour_and_tint():
     return t.finish(metal)
 
 
+def multiscatter_glossy():
+    t = Tree("Multiscatter Glossy")
+    glossy_node = t.node("ShaderNodeBsdfGlossy", Roughness=0.4, distribution="MULTI_GGX")
+    t.texture(glossy_node, "Color")
+    return t.finish(glossy_node)
+
+
 result = {}
-for build in (mix_diffuse_glossy, two_diffuse, add_rough_glossy, glossy_over_plastic,
-              coated_metal, tinted_plastic, metal_colour_and_tint):
+for build in (multiscatter_glossy, mix_diffuse_glossy, two_diffuse, add_rough_glossy,
+              glossy_over_plastic, coated_metal, tinted_plastic, metal_colour_and_tint):
     material = build()
     found = parts(material)
     result[material.name] = {
