@@ -45,7 +45,8 @@ import numpy as np
 from .brdf.cycles import GGX, MultiscatterGGX
 from .brdf.principled import Principled
 
-__all__ = ["ColourResponse", "response", "with_metallic", "MU_KNOTS", "PARAMETERS"]
+__all__ = ["ColourResponse", "response", "with_metallic", "coat_alone", "coat_tint_factor",
+           "MU_KNOTS", "PARAMETERS"]
 
 #: The Principled inputs the split applies to (:func:`response`).
 PARAMETERS = ("base_color", "specular_tint")
@@ -143,8 +144,7 @@ def response(model, parameter="base_color") -> ColourResponse | None:
     albedo = np.interp(mu, nodes, e)
     coat = under = None
     if model.coat > 0.0:
-        coat = Principled(**{**params, "metallic": 0.0, "ior": 1.0, "specular_tint": 1.0,
-                             "base_color": 0.0, "multiscatter": 0.0}).spec
+        coat = coat_alone(model)
         under = model.lower_weights(mu)[0]
     return ColourResponse(low, high, mu, albedo, float(average), fss[0].copy(),
                           fss[1] - fss[0], model.multiscatter, coat, under)
@@ -159,3 +159,31 @@ def with_metallic(model, metallic: float):
     if not isinstance(model, Principled):
         return None
     return Principled(**{**model.params, "metallic": float(metallic)})
+
+
+def coat_alone(model) -> str | None:
+    """The spec of a coated Principled glossy part's coat alone (the same coat over
+    Metallic 0 and IOR 1, which leave no layer below it), or None without a coat."""
+    if not isinstance(model, Principled) or model.coat <= 0.0:
+        return None
+    return Principled(**{**model.params, "metallic": 0.0, "ior": 1.0, "specular_tint": 1.0,
+                         "base_color": 0.0, "multiscatter": 0.0, "diffuse": 0.0}).spec
+
+
+def coat_tint_factor(tint, mean, mu, coat: float, ior: float) -> np.ndarray:
+    """T(tint, mu) / T(mean, mu) (..., 3): how a coat tint ``tint`` (..., 3) changes
+    everything below a coat baked at tint ``mean`` (3,), at view cosines mu (...).
+
+    Cycles weights the layers below a coat by T = 1 + coat (tint^(1 / cos_t) - 1)
+    with cos_t = sqrt(1 - (1 - mu^2) / ior^2) (bake.brdf.principled), a function of
+    the view alone, so with a map C of the coat alone the reflection at any tint
+    is C + T(tint) / T(mean) (R - C), R the map baked at the mean, and the diffuse
+    part scales by the same factor: exact (the nodes evaluate this per pixel)."""
+    mu = np.clip(np.asarray(mu, dtype=np.float64), 0.0, 1.0)[..., None]
+    cos_t = np.sqrt(np.maximum(1.0 - (1.0 - mu**2) / ior**2, 1e-12))
+
+    def weight(t):
+        t = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0)
+        return 1.0 + coat * (np.power(t, 1.0 / cos_t) - 1.0)
+
+    return weight(tint) / np.maximum(weight(mean), 1e-6)

@@ -158,7 +158,8 @@ class _Reader:
                 low, high = np.percentile(values, [1.0, 99.0])
                 plan.update(low=float(np.clip(low, 0.0, 1.0)), high=float(np.clip(high, 0, 1)))
         elif (node.name, name) in self.per_pixel and \
-                self.per_pixel[(node.name, name)]["kind"] in ("colour", "tint", "metallic"):
+                self.per_pixel[(node.name, name)]["kind"] in ("colour", "tint", "metallic",
+                                                              "coat_tint"):
             value = own
         else:
             value = own
@@ -302,6 +303,14 @@ class _Reader:
             self.per_pixel[(top.name, "Specular Tint")] = {
                 "kind": "tint", "node": top.name, "input": "Specular Tint", "split": True,
                 "part": part}
+        # A coat tint texture: a map of the coat alone, and everything below the
+        # coat scaled per pixel by a function of the tint and the view
+        # (bake.colour_response.coat_tint_factor).
+        if principled and self.varying(top, "Coat Tint") and \
+                not self.linked(top, "Coat Weight") and not self.linked(top, "Coat IOR") and \
+                float(top.inputs["Coat Weight"].default_value) > 0.0:
+            self.per_pixel[(top.name, "Coat Tint")] = {"kind": "coat_tint", "node": top.name,
+                                                       "input": "Coat Tint"}
         if self.linked(top, "Normal"):
             self.per_pixel[(top.name, "Normal")] = {"kind": "normal", "node": top.name,
                                                     "input": "Normal"}
@@ -351,6 +360,17 @@ class _Reader:
                     f"{label}: applied per pixel as a factor of the diffuse part baked at "
                     f"{_fmt(mean)} (exact) and to the metal through maps baked at base colours "
                     f"0 and 1{' (exact: bake.colour_response)' if plan['split'] else ''}")
+                d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
+                continue
+            if plan["kind"] == "coat_tint":
+                plan.update(mean=[float(c) for c in np.clip(d.inputs[label], 0.0, 1.0)],
+                            coat=float(np.ravel(d.inputs[f"{node_name}: Coat Weight"])[0]),
+                            ior=float(np.ravel(d.inputs[f"{node_name}: Coat IOR"])[0]))
+                d.approximated.append(
+                    f"{label}: applied per pixel: a map of the coat alone, and the layers below "
+                    "the coat (glossy and diffuse) scaled by T(tint, n.v) / T(mean, n.v) "
+                    "(exact: bake.colour_response.coat_tint_factor; the Hybrid and Runtime "
+                    "Sampling methods take the glossy part at the mean)")
                 d.spatial[plan["kind"]] = {k: v for k, v in plan.items() if k != "kind"}
                 continue
             if plan["kind"] == "metallic":

@@ -11,7 +11,7 @@ import math
 
 import bpy
 
-from .spatial import COAT, DIELECTRIC, HIGH, LOW, METAL
+from .spatial import COAT, DIELECTRIC, GLOSSY, HIGH, LOW, METAL
 
 GROUP_VERSION = 1
 
@@ -293,6 +293,9 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
             diffuse_value = _add(b, diffuse_value, lamp_diffuse)
         if "diffuse" in spatial:
             diffuse_value = _multiply(b, diffuse_value, _factor(b, *spatial["diffuse"]))
+        if "coat_tint" in spatial:
+            diffuse_value = _multiply(b, diffuse_value, coat_tint_factor(
+                b, *spatial["coat_tint"]))
         if "metallic" in spatial:
             socket, mean = spatial["metallic"]
             weight = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math(
@@ -411,21 +414,50 @@ def _combined_maps(b, roughness, maps, inputs=None):
     for knot in knots:
         lookups = {key: _environment(b, image, meta)
                    for r, key, image, meta in maps if r == knot}
-        if None in lookups:
-            values.append(lookups[None])
-            continue
-        if HIGH in lookups:
-            metal = _colour_split(b, lookups.get(LOW), lookups[HIGH], inputs["colour"],
-                                  inputs["responses"][knot], lookups.get(COAT))
+        if None in lookups or GLOSSY in lookups:
+            value = lookups.get(None, lookups.get(GLOSSY))
         else:
-            metal = lookups[METAL]
-        if DIELECTRIC in lookups:
-            metallic = b.math("MINIMUM", b.math("MAXIMUM", inputs["metallic"], 0.0), 1.0)
-            metal = b.mix(metallic, lookups[DIELECTRIC], metal)
-        values.append(metal)
+            if HIGH in lookups:
+                value = _colour_split(b, lookups.get(LOW), lookups[HIGH], inputs["colour"],
+                                      inputs["responses"][knot], lookups.get(COAT))
+            else:
+                value = lookups[METAL]
+            if DIELECTRIC in lookups:
+                metallic = b.math("MINIMUM", b.math("MAXIMUM", inputs["metallic"], 0.0), 1.0)
+                value = b.mix(metallic, lookups[DIELECTRIC], value)
+        if inputs and inputs.get("coat_tint") and COAT in lookups:
+            # C + T(tint) / T(mean) (V - C): a coat tint texture scales what lies below.
+            coat = lookups[COAT]
+            value = b.vec("ADD", coat, b.vec("MULTIPLY", coat_tint_factor(
+                b, *inputs["coat_tint"]), b.vec("SUBTRACT", value, coat)))
+        values.append(value)
     if len(knots) == 1:
         return values[0]
     return _roughness_blend(b, roughness, knots, values)
+
+
+def coat_tint_factor(b, tint, mean, coat, ior):
+    """T(tint, mu) / T(mean, mu) per channel (vector socket), the factor by which a
+    coat tint ``tint`` (the user's socket) changes what lies below a coat baked at
+    tint ``mean`` (3,): T = 1 + coat (tint^(1 / cos_t) - 1), cos_t = sqrt(1 - (1 -
+    mu^2) / ior^2), mu = n.v (bake.colour_response.coat_tint_factor in NumPy)."""
+    geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
+    mu = b.math("MINIMUM", b.math("MAXIMUM", b.vec("DOT_PRODUCT", geometry.outputs["Normal"],
+                                                   geometry.outputs["Incoming"]), 0.0), 1.0)
+    sine = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", mu, mu)),
+                  float(ior) ** 2)
+    cos_t = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, sine), 1e-12))
+    exponent = b.math("DIVIDE", 1.0, cos_t)
+    power = b.combine(exponent, exponent, exponent)
+    one = b.combine(1.0, 1.0, 1.0)
+
+    def weight(t):
+        return b.vec("ADD", one, b.vec("SCALE", b.vec("SUBTRACT", b.vec("POWER", t, power),
+                                                       one), scale=float(coat)))
+
+    t = b.vec("MINIMUM", b.vec("MAXIMUM", tint, b.combine(0.0, 0.0, 0.0)), one)
+    return b.vec("DIVIDE", weight(t), b.vec("MAXIMUM", weight(b.combine(
+        *(float(c) for c in mean))), b.combine(1e-6, 1e-6, 1e-6)))
 
 
 def _colour_split(b, low, high, colour, found, coat=None):

@@ -48,8 +48,9 @@ ROUGHNESS_SPREAD = 1.05
 MAX_KNOTS = 8
 #: Keys of the maps a From Material bake writes besides one plain map
 #: (:func:`map_variants`; each file ends in ``_<key>``): a split colour at 0 and
-#: 1, the coat alone, Metallic 0 and Metallic 1 (unsplit).
-LOW, HIGH, COAT, DIELECTRIC, METAL = "c0", "c1", "coat", "dielectric", "metal"
+#: 1, the coat alone, Metallic 0, Metallic 1 (unsplit) and the whole glossy part.
+LOW, HIGH, COAT, DIELECTRIC, METAL, GLOSSY = "c0", "c1", "coat", "dielectric", "metal", \
+    "glossy"
 #: Roughness knots start no lower than this (Cycles' mirror threshold).
 MIN_ROUGHNESS = 0.01
 
@@ -102,22 +103,27 @@ def split_plan(derived) -> tuple:
 
 def _split_knots(parts, colour=True) -> list:
     """[(roughness or None, dielectric spec or None, glossy model to split or keep,
-    ColourResponse or None), ...] per roughness knot (one None knot without a
-    roughness texture), or [] where no map splits: the dielectric spec where a
-    metallic texture mixes maps at Metallic 0 and 1 (the model is then the
-    metal at 1), the response where a colour is split."""
+    ColourResponse or None, coat spec or None), ...] per roughness knot (one None
+    knot without a roughness texture), or [] where no map splits: the dielectric
+    spec where a metallic texture mixes maps at Metallic 0 and 1 (the model is
+    then the metal at 1), the response where a colour is split, the coat alone
+    where a coat tint texture scales what lies below the coat."""
     from ..bake import brdf
-    from ..bake.colour_response import response, with_metallic
+    from ..bake.colour_response import coat_alone, response, with_metallic
 
     if not colour or parts.derived is None:
         return []
     parameter, plan = split_plan(parts.derived)
     metallic = "metallic" in parts.derived.spatial
-    if plan is None and not metallic:
+    tinted = "coat_tint" in parts.derived.spatial
+    if plan is None and not metallic and not tinted:
         return []
     out = []
     for roughness, spec in parts.roughness_set or [(None, parts.glossy_spec)]:
         model, dielectric = brdf.parse(spec), None
+        coat = coat_alone(model) if tinted else None
+        if tinted and coat is None:
+            return []
         if metallic:
             dielectric = with_metallic(model, 0.0)
             model = with_metallic(model, 1.0)
@@ -125,9 +131,9 @@ def _split_knots(parts, colour=True) -> list:
                 return []
             dielectric = dielectric.spec
         found = response(model, parameter) if plan is not None else None
-        if plan is not None and found is None and not metallic:
+        if plan is not None and found is None and not metallic and not tinted:
             return []
-        out.append((roughness, dielectric, model, found))
+        out.append((roughness, dielectric, model, found, coat))
     return out
 
 
@@ -136,7 +142,7 @@ def colour_responses(parts) -> dict:
     Material glossy part with an input split per pixel (:func:`split_plan`; the
     metal at Metallic 1 where a metallic texture mixes maps); {} where there is
     none (or the split does not apply)."""
-    return {r: found for r, _, _, found in _split_knots(parts) if found is not None}
+    return {r: found for r, _, _, found, _ in _split_knots(parts) if found is not None}
 
 
 def map_variants(parts, colour=True) -> list:
@@ -145,13 +151,14 @@ def map_variants(parts, colour=True) -> list:
     ``colour``, per knot: the map at Metallic 0 (:data:`DIELECTRIC`) where a
     metallic texture mixes maps, then either the maps of a split colour
     (:data:`LOW` and :data:`HIGH`, at colours 0 and 1, and :data:`COAT`, the
-    coat alone, where needed) or the metal's map (:data:`METAL`); [] for one
-    map of Parts.glossy_spec."""
+    coat alone, where needed) or the metal's map (:data:`METAL`) or the whole
+    glossy part's (:data:`GLOSSY`), and the coat alone (:data:`COAT`) where a
+    coat tint texture needs it; [] for one map of Parts.glossy_spec."""
     knots = _split_knots(parts, colour)
     if not knots:
         return [(r, None, spec) for r, spec in parts.roughness_set]
     out = []
-    for roughness, dielectric, model, found in knots:
+    for roughness, dielectric, model, found, coat in knots:
         if dielectric is not None:
             out.append((roughness, DIELECTRIC, dielectric))
         if found is not None:
@@ -159,7 +166,9 @@ def map_variants(parts, colour=True) -> list:
                     ((LOW, found.low), (HIGH, found.high), (COAT, found.coat))
                     if spec is not None]
         else:
-            out.append((roughness, METAL, model.spec))
+            out.append((roughness, METAL if dielectric is not None else GLOSSY, model.spec))
+        if coat is not None and (found is None or found.coat is None):
+            out.append((roughness, COAT, coat))
     return out
 
 
@@ -195,4 +204,9 @@ def lookup_sockets(material, spatial: dict) -> dict:
         socket = input_socket(material, metallic["node"], metallic["input"])
         if socket is not None:
             out["metallic"] = (socket, metallic["mean"])
+    tint = spatial.get("coat_tint")
+    if tint:
+        socket = input_socket(material, tint["node"], tint["input"])
+        if socket is not None:
+            out["coat_tint"] = (socket, tint["mean"], tint["coat"], tint["ior"])
     return out

@@ -22,6 +22,7 @@ from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.spatial import (
     COAT,
     DIELECTRIC,
+    GLOSSY,
     HIGH,
     METAL,
     colour_responses,
@@ -342,7 +343,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 mean = float(brdf.parse(spec).params.get("roughness", 0.0))
                 # The map recorded as the bake: a plain, white or metal one nearest the
                 # mean roughness.
-                nearest = min((k for k in knots if k[3] in (None, HIGH, METAL)),
+                nearest = min((k for k in knots if k[3] in (None, HIGH, METAL, GLOSSY)),
                               key=lambda knot: abs((knot[0] or mean) - mean))
                 path, (image, atlas_meta) = nearest[1], nearest[2]
                 rows = max(sizes)
@@ -352,6 +353,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     what.append(f"roughness {', '.join(f'{r:.3g}' for r in roughnesses)} for "
                                 f"the roughness texture")
                 keys = {k[3] for k in knots}
+                if GLOSSY in keys:
+                    what.append("the glossy part and the coat alone for the Coat Tint texture")
                 if DIELECTRIC in keys:
                     what.append("Metallic 0 and 1 for the metallic texture")
                 if HIGH in keys:
@@ -465,6 +468,8 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if plan else None
             if inputs["metallic"] is None:
                 return None, None
+        if COAT in keys and spatial.get("coat_tint"):
+            inputs["coat_tint"] = spatial["coat_tint"]
         maps = []
         for roughness, knot_path, key in knots:
             _, knot_meta = exr.read(knot_path)

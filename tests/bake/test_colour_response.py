@@ -124,3 +124,23 @@ def test_a_multiscatter_glossy_bsdf_s_colour_is_a_white_map_times_c_and_m(roughn
     # Exact up to E(mu) at 33 knots; the c / mean factor is off by up to 10%
     # (benchmarks/colour_response.py).
     assert np.abs(got - truth).max() / truth.max() < 2e-3
+
+
+@pytest.mark.parametrize("below", ["metallic=1,base_color=0.7/0.5/0.3",
+                                   "metallic=0,base_color=0.2/0.6/0.3,diffuse=1"])
+def test_a_coat_tint_scales_what_lies_below_the_coat_alone(below):
+    # C + T(t) / T(mean) (R(mean) - C) against the model at tint t (diffuse layer
+    # included: it lies below the coat too): exact.
+    rng = np.random.default_rng(5)
+    wi, wo = _directions(rng, 300), _directions(rng, 300)
+    spec = f"principled:{below},roughness=0.4,coat_weight=0.8,coat_roughness=0.1,coat_ior=1.6"
+    mean = np.array([0.5, 0.6, 0.7])
+    model = brdf.parse(f"{spec},coat_tint=0.5/0.6/0.7")
+    coat = brdf.parse(colour_response.coat_alone(model)).f(wi, wo)
+    tints = rng.uniform(0.0, 1.0, (300, 3))
+    truth = np.stack([brdf.parse(f"{spec},coat_tint={'/'.join(f'{x:.9g}' for x in t)}").f(a, b)
+                      for a, b, t in zip(wi, wo, tints, strict=True)])
+    got = coat + colour_response.coat_tint_factor(tints, mean, wo[:, 2], 0.8, 1.6) * (
+        model.f(wi, wo) - coat)
+    assert np.abs(got - truth).max() / truth.max() < 1e-8
+    assert colour_response.coat_alone(brdf.parse("principled:roughness=0.3")) is None

@@ -66,3 +66,9 @@ def test_colour_splits_where_bake_colour_response_applies(plans):
     multiscatter = plans["Multiscatter Glossy"]
     assert multiscatter["maps"] == [[None, "c1"]]
     assert any("white map times the colour" in line for line in multiscatter["approximated"])
+    # A coat tint texture: the glossy part and the coat alone; what lies below the
+    # coat is scaled per pixel (bake.colour_response.coat_tint_factor).
+    coat_tint = plans["Coat Tint Texture"]
+    assert coat_tint["maps"] == [[None, "glossy"], [None, "coat"]]
+    assert coat_tint["spatial"]["coat_tint"]["coat"] == 1.0
+    assert coat_tint["spatial"]["coat_tint"]["mean"] == pytest.approx([0.4] * 3, abs=1e-6)

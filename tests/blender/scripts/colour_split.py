@@ -17,7 +17,9 @@ unlinked value is 0 (maps at Metallic 0 and 1 mixed per pixel; compare with
 "Direct"); "Half Direct" and "Half Chain" a half metal (Metallic 0.5 typed in,
 or through the chain) of colour COLOUR; "Glossy Direct" and "Glossy Chain"
 the Color of a Multiscatter GGX Glossy BSDF of roughness 0.5 (a white map
-times the colour and the energy term).
+times the colour and the energy term); "Coat Tint Direct" and "Coat Tint
+Chain" a light grey plastic under a coat (weight 1, roughness 0.2) of tint
+TINT (a map of the coat alone; below it scaled per pixel).
 Each sphere is captured, baked,
 attached and validated alone; the report's errors against Cycles are
 recorded. With the split
@@ -62,7 +64,8 @@ CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0
          ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0),
          ("Metallic Chain", "Base Color", True, 0.0), ("Half Direct", "Metallic", False, 0.0),
          ("Half Chain", "Metallic", True, 0.0), ("Glossy Direct", "Glossy", False, 0.0),
-         ("Glossy Chain", "Glossy", True, 0.0))
+         ("Glossy Chain", "Glossy", True, 0.0), ("Coat Tint Direct", "Coat Tint", False, 1.0),
+         ("Coat Tint Chain", "Coat Tint", True, 1.0))
 for index, (name, input_name, chained, coat) in enumerate(CASES):
     bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
                                          ring_count=24)
@@ -90,7 +93,11 @@ for index, (name, input_name, chained, coat) in enumerate(CASES):
         bsdf.inputs["Coat Weight"].default_value = coat
     if input_name == "Specular Tint":
         bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
-    value = TINT if input_name == "Specular Tint" else COLOUR
+    if input_name == "Coat Tint":  # a light grey plastic under a tinted coat
+        bsdf.inputs["Metallic"].default_value = 0.0
+        bsdf.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+        bsdf.inputs["Coat Roughness"].default_value = 0.2
+    value = TINT if input_name in ("Specular Tint", "Coat Tint") else COLOUR
     if name.startswith(("Metallic", "Half")):
         # Metallic (1, or 0.5 for "Half") typed in or through a chain (a Value node
         # plus 0) whose unlinked value is 0: the bake's spec is then a dielectric.

@@ -161,9 +161,18 @@ def multiscatter_glossy():
     return t.finish(glossy_node)
 
 
+def coat_tint_texture():
+    t = Tree("Coat Tint Texture")
+    plastic = t.node("ShaderNodeBsdfPrincipled", Roughness=0.4)
+    plastic.inputs["Coat Weight"].default_value = 1.0
+    t.texture(plastic, "Coat Tint")
+    return t.finish(plastic)
+
+
 result = {}
-for build in (multiscatter_glossy, mix_diffuse_glossy, two_diffuse, add_rough_glossy,
-              glossy_over_plastic, coated_metal, tinted_plastic, metal_colour_and_tint):
+for build in (coat_tint_texture, multiscatter_glossy, mix_diffuse_glossy, two_diffuse,
+              add_rough_glossy, glossy_over_plastic, coated_metal, tinted_plastic,
+              metal_colour_and_tint):
     material = build()
     found = parts(material)
     result[material.name] = {
