@@ -10,9 +10,10 @@ so the figures are the colour handling's own error, on every bundled HDRI.
 
 Prints, per roughness and texel colour c (grey, the texture's mean 0.5), the
 worst relative RMS error over the HDRIs of each method against the integral
-at colour c, and the HDRI where it is worst; then the same for what Glossy
-still approximates: a Multiscatter GGX Glossy BSDF's colour as the factor
-c / m, and a coat tint texture taken at its mean.
+at colour c, and the HDRI where it is worst; then the same for two more
+shortcuts the splits replace (bake.colour_response): a Multiscatter GGX
+Glossy BSDF's colour as the factor c / m, and a coat tint texture taken at
+its mean.
 
     .venv/bin/python benchmarks/colour_response.py [--quick]
 """
@@ -60,8 +61,8 @@ def main():
             low = reflected_radiance(brdf.parse(found.low), probe, "cube", normals, views)
             high = reflected_radiance(brdf.parse(found.high), probe, "cube", normals, views)
             at_mean = radiance(MEAN)
-            # What stays approximate: a Multiscatter Glossy BSDF's colour as a factor
-            # (its energy term is not linear in it), and a coat tint at its mean.
+            # Two more shortcuts the splits replace: a Multiscatter Glossy BSDF's colour
+            # as a factor (its energy term is not linear in it), a coat tint at its mean.
             glossy = f"ggx_multiscatter:roughness={roughness},color="
             coated = (f"principled:base_color=0.8,metallic=1,roughness={roughness},"
                       f"coat_weight=1,coat_roughness=0.1,coat_tint=")
@@ -93,7 +94,7 @@ def main():
             split, where_split = worst[(roughness, c, "split")]
             print(f"  {roughness:9.2f} {c:7.2f}   {ratio:8.4f} ({where:>8s})   "
                   f"{split:8.4f} ({where_split:>8s})")
-    print(f"\nWhat stays approximate (same pixels and HDRIs): a Multiscatter GGX Glossy "
+    print(f"\nShortcuts the splits replace (same pixels and HDRIs): a Multiscatter GGX Glossy "
           f"BSDF's colour texture as the factor c / m (the energy term's nonlinearity), and a "
           f"coated metal's (base 0.8, coat 1, coat roughness 0.1) Coat Tint texture taken at "
           f"its mean m = {MEAN}:")

@@ -22,6 +22,14 @@ untouched. For a single Principled, Glossy or Diffuse BSDF at the output:
   (unless the metal's base colour is split already): split in the
   same way, maps at tints 0 and 1 (exact for the reflection; a dielectric's
   diffuse weight keeps the tint's unlinked value);
+- its Metallic driven by a chain: maps at Metallic 0 and 1 mixed by it (the
+  metal's colour split as above) and the diffuse part scaled by
+  (1 - m) / (1 - mean) (exact: the Principled BSDF is affine in it);
+- its Coat Tint driven by a chain: a map of the coat alone, and what lies
+  below the coat scaled by T(tint, mu) / T(mean, mu)
+  (bake.colour_response.coat_tint_factor, exact);
+- a Multiscatter GGX Glossy BSDF's Color: a white single-scatter map times
+  the colour and the energy term (exact);
 - its Normal input (a Normal Map or Bump node): the normal of every lookup
   (environment, diffuse, view weight, runtime sampling, lamps);
 - its Roughness from an image: the map is baked at roughness knots spaced
