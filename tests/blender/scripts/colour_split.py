@@ -7,8 +7,7 @@ roughness 0.3): "Direct" has the base colour COLOUR typed into the node;
 "Chain" has Base Color linked from a Gamma node (gamma 1) fed by an RGB node
 of COLOUR, while its own unlinked Base Color is a light grey: the node reader
 takes the unlinked value as the bake's colour, and the lookup reads COLOUR per
-pixel. "Tint Direct" and "Tint Chain" do the same with the Specular Tint (the
-F82 edge tint, TINT) of a light grey metal; "Mix Direct" and "Mix Chain" with
+pixel. "Mix Direct" and "Mix Chain" do the same with
 the Color of a Diffuse BSDF mixed half and half with a GGX 0.3 Glossy BSDF
 (the diffuse part's factor in a Mix tree); "Coat Direct" and "Coat Chain" as
 the first two under a coat (Coat Weight 1: a third map of the coat alone);
@@ -59,7 +58,6 @@ result = {}
 spheres = {}
 # (name, the input driven, whether through the chain, coat weight)
 CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0),
-         ("Tint Direct", "Specular Tint", False, 0.0), ("Tint Chain", "Specular Tint", True, 0.0),
          ("Mix Direct", "Color", False, 0.0), ("Mix Chain", "Color", True, 0.0),
          ("Coat Direct", "Base Color", False, 1.0), ("Coat Chain", "Base Color", True, 1.0),
          ("Metallic Chain", "Base Color", True, 0.0), ("Half Direct", "Metallic", False, 0.0),
@@ -91,13 +89,11 @@ for index, (name, input_name, chained, coat) in enumerate(CASES):
         bsdf.inputs["Metallic"].default_value = 1.0
         bsdf.inputs["Roughness"].default_value = 0.3
         bsdf.inputs["Coat Weight"].default_value = coat
-    if input_name == "Specular Tint":
-        bsdf.inputs["Base Color"].default_value = (0.9, 0.9, 0.9, 1.0)
     if input_name == "Coat Tint":  # a light grey plastic under a tinted coat
         bsdf.inputs["Metallic"].default_value = 0.0
         bsdf.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1.0)
         bsdf.inputs["Coat Roughness"].default_value = 0.2
-    value = TINT if input_name in ("Specular Tint", "Coat Tint") else COLOUR
+    value = TINT if input_name == "Coat Tint" else COLOUR
     if name.startswith(("Metallic", "Half")):
         # Metallic (1, or 0.5 for "Half") typed in or through a chain (a Value node
         # plus 0) whose unlinked value is 0: the bake's spec is then a dielectric.
