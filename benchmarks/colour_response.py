@@ -36,6 +36,18 @@ MEAN = 0.5
 COLOURS = (0.05, 0.2, 0.8, 0.95)
 
 
+def table(worst, roughnesses, *columns):
+    """Print the worst error and its HDRI per roughness and texel colour for the
+    ``columns`` ((key in ``worst``, heading), ...)."""
+    print(f"  {'roughness':>9s} {'texel c':>7s}" +
+          "".join(f"   {heading:>18s}" for _, heading in columns))
+    for roughness in roughnesses:
+        for c in COLOURS:
+            cells = (worst[(roughness, c, key)] for key, _ in columns)
+            print(f"  {roughness:9.2f} {c:7.2f}" +
+                  "".join(f"   {value:8.4f} ({where:>8s})" for value, where in cells))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="two HDRIs, smaller sphere")
@@ -87,25 +99,13 @@ def main():
     print(f"\nMetal (Principled, Metallic 1, Multiscatter GGX), grey base-colour texture of "
           f"mean {MEAN}; worst relative RMS over {len(hdris)} HDRIs on {len(normals)} sphere "
           f"pixels, against the brute-force integral at the texel's colour:")
-    print(f"  {'roughness':>9s} {'texel c':>7s}   {'ratio c/m':>18s}   {'split (2 maps)':>18s}")
-    for roughness in roughnesses:
-        for c in COLOURS:
-            ratio, where = worst[(roughness, c, "ratio")]
-            split, where_split = worst[(roughness, c, "split")]
-            print(f"  {roughness:9.2f} {c:7.2f}   {ratio:8.4f} ({where:>8s})   "
-                  f"{split:8.4f} ({where_split:>8s})")
+    table(worst, roughnesses, ("ratio", "ratio c/m"), ("split", "split (2 maps)"))
     print(f"\nShortcuts the splits replace (same pixels and HDRIs): a Multiscatter GGX Glossy "
           f"BSDF's colour texture as the factor c / m (the energy term's nonlinearity), and a "
           f"coated metal's (base 0.8, coat 1, coat roughness 0.1) Coat Tint texture taken at "
           f"its mean m = {MEAN}:")
-    print(f"  {'roughness':>9s} {'texel c':>7s}   {'Multiscatter c/m':>18s}   "
-          f"{'coat tint at m':>18s}")
-    for roughness in roughnesses:
-        for c in COLOURS:
-            ms, where = worst[(roughness, c, "multiscatter")]
-            tint, where_tint = worst[(roughness, c, "coat tint")]
-            print(f"  {roughness:9.2f} {c:7.2f}   {ms:8.4f} ({where:>8s})   "
-                  f"{tint:8.4f} ({where_tint:>8s})")
+    table(worst, roughnesses, ("multiscatter", "Multiscatter c/m"),
+          ("coat tint", "coat tint at m"))
     ratio_all = max(v for (_, _, k), (v, _) in worst.items() if k == "ratio")
     split_all = max(v for (_, _, k), (v, _) in worst.items() if k == "split")
     print(f"worst: ratio {ratio_all:.4f}, split {split_all:.4f} "
