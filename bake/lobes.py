@@ -33,6 +33,7 @@ section 5.2), absolute and relative to the RMS of the BRDF.
 """
 
 import copy
+import functools
 import itertools
 import json
 from dataclasses import asdict, dataclass, field
@@ -223,11 +224,16 @@ def _unit(profile):
     return np.asarray(profile) / total
 
 
+@functools.lru_cache(maxsize=4)
 def _error_samples(n=4096):
+    """(n, 3) cosine-distributed Hammersley directions (the same for every slice;
+    read-only)."""
     u = hammersley(n)
     r = np.sqrt(u[:, 0])
     phi = 2.0 * np.pi * u[:, 1]
-    return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u[:, 0])], -1)
+    samples = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u[:, 0])], -1)
+    samples.flags.writeable = False
+    return samples
 
 
 def _fit_slice(model, mu, lobes, mode_shape=None):
@@ -290,7 +296,7 @@ def _fit_slice(model, mu, lobes, mode_shape=None):
     fitted = [LobeFit(offset=o, weight=w.tolist(), profile=s.tolist())
               for o, w, s in zip(offsets, weights, shapes, strict=True)]
     result = SliceFit(mu=float(mu), albedo=albedo.tolist(), lobes=fitted)
-    _measure(result, model, wo, samples)
+    _measure(result, target @ LUMINANCE, wo, samples)
     return result
 
 
@@ -331,9 +337,9 @@ def _weights_summing_to(a, b, total):
     return best_x
 
 
-def _measure(slice_fit, model, wo, samples):
-    """Cosine-weighted RMS error of the fitted BRDF (KM 1999 sec. 5.2), in place."""
-    true_f = model.f(samples, np.broadcast_to(wo, samples.shape)) @ LUMINANCE
+def _measure(slice_fit, true_f, wo, samples):
+    """Cosine-weighted RMS error of the fitted BRDF (KM 1999 sec. 5.2), in place.
+    true_f: (N,) luminance of the true BRDF at ``samples`` (N, 3) for view ``wo``."""
     approx = 0.0
     for lobe in slice_fit.lobes:
         shape = lobe.shape(samples @ _centre(wo, lobe.offset))

@@ -4,9 +4,11 @@
 
 Sphere "Shiny" (GGX roughness 0.3, which Cycles has) and sphere "Ward" (Ward
 alpha 0.15, which it has not), World Only probes of 128 px faces, no scene
-camera (validation frames one), 96 px, Cycles 2 x 256 spp, EEVEE 8 samples.
-Neither sphere is seen in the other's reflections (ray visibility), so each
-is an isolated sphere under distant light. With CHECKS=1 it also tries bad
+camera (validation frames one), 96 px, Cycles 2 x 1024 spp, EEVEE 8 samples.
+Neither sphere is seen in the other's reflections nor casts a shadow on it
+(ray visibility: Cycles' world light samples trace shadow rays, which a sphere
+invisible only to glossy rays would still block, darkening the side facing it
+by 8-17%), so each is an isolated sphere under distant light. With CHECKS=1 it also tries bad
 input, an Esc in the middle, and a re-bake that must make the figures stale.
 """
 
@@ -29,7 +31,7 @@ environment_world(scene, hdri)
 scene.render.resolution_x = scene.render.resolution_y = 100
 settings = scene.glossy
 settings.validate_resolution = 96
-settings.validate_samples = 256
+settings.validate_samples = 1024
 settings.validate_eevee_samples = 8
 result = {}
 
@@ -48,6 +50,7 @@ def sphere(name, x):
     obj = bpy.context.object
     obj.name = name
     obj.visible_glossy = obj.visible_diffuse = obj.visible_transmission = False
+    obj.visible_shadow = False
     obj.glossy.probe_source = "WORLD"
     obj.glossy.probe_size_mode = "FIXED"
     obj.glossy.probe_resolution = 128
