@@ -54,6 +54,58 @@ def validate_each(objects, workdir):
     return out
 
 
+def validate_together(objects, workdir, columns, spacing):
+    """{name: (steps, figures)} as :func:`validate_each`, for ``objects`` ({name:
+    object}, each at the origin) validated in one run: laid out on a grid of
+    ``columns`` at ``spacing`` (world units), hidden from each other's glossy,
+    diffuse, transmission and shadow rays (each is an isolated object under
+    distant light, for Cycles too), and seen by an orthographic camera whose
+    pixels fall on every object alike (the spacing is a whole number of
+    pixels), so two objects with the same material get the same pixels. The
+    steps (capture, bake, attach, validate) run once for all of them."""
+    import json
+    import math
+    from pathlib import Path
+
+    scene = bpy.context.scene
+    rows = math.ceil(len(objects) / columns)
+    side = max(rows, columns)
+    for index, obj in enumerate(objects.values()):
+        row, column = divmod(index, columns)
+        obj.location = (spacing * (column - 0.5 * (side - 1)), 0.0,
+                        spacing * (0.5 * (side - 1) - row))
+        obj.visible_glossy = obj.visible_diffuse = False
+        obj.visible_transmission = obj.visible_shadow = False
+    data = bpy.data.cameras.new("grid camera")
+    data.type = "ORTHO"
+    data.ortho_scale = spacing * side
+    camera = bpy.data.objects.new("grid camera", data)
+    scene.collection.objects.link(camera)
+    camera.location = (0.0, -10.0 * spacing * side, 0.0)
+    camera.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looks along +Y, +Z up
+    data.clip_end = 20.0 * spacing * side
+    scene.camera = camera
+    scene.render.resolution_x = scene.render.resolution_y = 100  # square; validate sizes it
+    scene.glossy.validate_resolution *= side  # the per-object size, times the grid
+    def select(active=None):
+        bpy.ops.object.select_all(action="DESELECT")
+        for obj in objects.values() if active is None else [active]:
+            obj.select_set(True)
+        bpy.context.view_layer.objects.active = active or next(iter(objects.values()))
+
+    select()
+    capture = run(bpy.ops.glossy.capture_probes)  # every selected object
+    own = {}
+    for name, obj in objects.items():  # bake and attach work on the active object
+        select(obj)
+        own[name] = [run(bpy.ops.glossy.bake_materials), run(bpy.ops.glossy.attach_materials)]
+    select()
+    validate = run(bpy.ops.glossy.validate)
+    report = json.loads((Path(workdir) / "glossy" / "validation" / "report.json").read_text())
+    figures = {entry["object"]: entry["figures"] for entry in report["objects"]}
+    return {name: ([capture, *own[name], validate], figures[name]) for name in objects}
+
+
 def errors(figures):
     """(Glossy's, native EEVEE's best) relative RMS errors against Cycles in a report."""
     methods = figures["methods"]

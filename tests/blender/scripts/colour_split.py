@@ -19,9 +19,10 @@ the Color of a Multiscatter GGX Glossy BSDF of roughness 0.5 (a white map
 times the colour and the energy term); "Coat Tint Direct" and "Coat Tint
 Chain" a light grey plastic under a coat (weight 1, roughness 0.2) of tint
 TINT (a map of the coat alone; below it scaled per pixel).
-Each sphere is captured, baked,
-attached and validated alone; the report's errors against Cycles are
-recorded. With the split
+The spheres are captured, baked,
+attached and validated together, on a grid seen by an orthographic camera,
+each hidden from the others' rays (isolated under distant light) and 64 px
+across its cell; the report's errors against Cycles are recorded. With the split
 (bake.colour_response) both spheres show the same reflection; scaling the
 grey map by COLOUR / grey (the ratio) is far off at grazing views, where the
 metal's Fresnel goes to white. "ratio" forces the ratio (and the tint's
@@ -39,7 +40,7 @@ import bpy  # noqa: E402
 from _operators import (  # noqa: E402
     errors,
     shader_material,
-    validate_each,
+    validate_together,
     validation_scene,
     world_probe,
 )
@@ -64,9 +65,8 @@ CASES = (("Direct", "Base Color", False, 0.0), ("Chain", "Base Color", True, 0.0
          ("Half Chain", "Metallic", True, 0.0), ("Glossy Direct", "Glossy", False, 0.0),
          ("Glossy Chain", "Glossy", True, 0.0), ("Coat Tint Direct", "Coat Tint", False, 1.0),
          ("Coat Tint Chain", "Coat Tint", True, 1.0))
-for index, (name, input_name, chained, coat) in enumerate(CASES):
-    bpy.ops.mesh.primitive_uv_sphere_add(location=(4.0 * index, 0.0, 0.0), segments=48,
-                                         ring_count=24)
+for name, input_name, chained, coat in CASES:
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24)
     obj = bpy.context.object
     obj.name = name
     bpy.ops.object.shade_smooth()
@@ -126,7 +126,7 @@ for index, (name, input_name, chained, coat) in enumerate(CASES):
     world_probe(obj, 64)
     spheres[name] = obj
 
-for name, (steps, figures) in validate_each(spheres, workdir).items():
+for name, (steps, figures) in validate_together(spheres, workdir, 4, 2.5).items():
     material = spheres[name].material_slots[0].material
     glossy_error, native_error = errors(figures)
     result[name] = {
