@@ -21,9 +21,12 @@ over the bin's pixels of every HDRI, each HDRI's squares divided by its
 mean squared truth in the bin (relative errors, pooled). Unlike an
 inverse-variance weight it accounts for the two errors being correlated
 (both limited by the probe, e.g. roughness 0.1 under a tiny sun). The table
-also records each method's relative RMS error per bin. Between bins and
-roughness values w is interpolated linearly (mu at the bins' centres,
-roughness on its grid; clamped outside).
+also records each method's relative RMS error per bin. The regular
+estimate's error falls as its sample count grows, so the table holds w and
+its error per sample budget too (19, 61 and 127 samples): a Hybrid of 127
+samples leans on the regular estimate where one of 19 must not. Between
+bins, roughness values and budgets w is interpolated linearly (mu at the
+bins' centres, roughness on its grid, the budget in log2; clamped outside).
 """
 
 import json
@@ -40,32 +43,63 @@ TABLE_PATH = Path(__file__).with_name("hybrid_errors.json")
 
 
 class ErrorTable:
-    """Measured relative errors ``map`` and ``regular``, (R, B) each, over
-    roughness values ``roughness`` (R,) and mu bins ``edges`` (B + 1,)."""
+    """Measured relative errors and weights over sample budgets ``budgets`` (S,),
+    roughness values ``roughness`` (R,) and mu bins ``edges`` (B + 1,): ``map``
+    (R, B) (the 3D map has no budget), ``regular`` and ``weight`` (S, R, B).
+    A table of one budget may give ``regular`` and ``weight`` as (R, B); its
+    budget is then ``meta["budget"]`` (19 when absent)."""
 
-    def __init__(self, roughness, edges, map_error, regular_error, weight, meta=None):
+    def __init__(self, roughness, edges, map_error, regular_error, weight, meta=None,
+                 budgets=None):
         self.roughness = np.asarray(roughness, dtype=np.float64)
         self.edges = np.asarray(edges, dtype=np.float64)
+        self.meta = dict(meta or {})
         self.map = np.asarray(map_error, dtype=np.float64)
         self.regular = np.asarray(regular_error, dtype=np.float64)
         self.weight = np.asarray(weight, dtype=np.float64)
-        self.meta = dict(meta or {})
+        if self.weight.ndim == 2:
+            self.regular, self.weight = self.regular[None], self.weight[None]
+        if budgets is None:
+            budgets = [self.meta.get("budget", 19)] if self.weight.shape[0] == 1 else []
+        self.budgets = np.asarray(budgets, dtype=np.float64)
         shape = (len(self.roughness), len(self.edges) - 1)
-        if any(a.shape != shape for a in (self.map, self.regular, self.weight)):
-            raise BakeError(f"hybrid error table: errors and weights must be {shape}")
+        if self.map.shape != shape or any(a.shape != (len(self.budgets), *shape)
+                                          for a in (self.regular, self.weight)):
+            raise BakeError(f"hybrid error table: the map's errors must be {shape}, the "
+                            f"regular estimate's errors and weights {len(self.budgets)} x "
+                            f"{shape} (one per budget)")
+        if np.any(np.diff(self.budgets) <= 0) or np.any(self.budgets < 1):
+            raise BakeError("hybrid error table: budgets must be increasing sample counts")
 
     def to_json(self) -> dict:
-        return {"roughness": self.roughness.tolist(), "mu_edges": self.edges.tolist(),
-                "map": self.map.tolist(), "regular": self.regular.tolist(),
-                "weight": self.weight.tolist(), "meta": self.meta}
+        return {"budgets": self.budgets.tolist(), "roughness": self.roughness.tolist(),
+                "mu_edges": self.edges.tolist(), "map": self.map.tolist(),
+                "regular": self.regular.tolist(), "weight": self.weight.tolist(),
+                "meta": self.meta}
 
     @classmethod
     def from_json(cls, data) -> "ErrorTable":
         return cls(data["roughness"], data["mu_edges"], data["map"], data["regular"],
-                   data["weight"], data.get("meta"))
+                   data["weight"], data.get("meta"), data.get("budgets"))
 
-    def interpolate(self, table, mu, roughness):
-        """A (R, B) table interpolated at mu (...) and a scalar roughness."""
+    def at_budget(self, table, samples):
+        """A (S, R, B) table interpolated at ``samples`` (linear in log2 of the
+        budget, clamped to the measured ones): (R, B)."""
+        table = np.asarray(table, dtype=np.float64)
+        if table.ndim == 2:
+            return table
+        if len(self.budgets) == 1:
+            return table[0]
+        x = np.log2(np.clip(float(samples), self.budgets[0], self.budgets[-1]))
+        logs = np.log2(self.budgets)
+        i = int(np.clip(np.searchsorted(logs, x, side="right") - 1, 0, len(logs) - 2))
+        t = (x - logs[i]) / (logs[i + 1] - logs[i])
+        return (1.0 - t) * table[i] + t * table[i + 1]
+
+    def interpolate(self, table, mu, roughness, samples=19):
+        """A (R, B) or (S, R, B) table interpolated at mu (...), a scalar roughness
+        and (for (S, R, B)) a sample count."""
+        table = self.at_budget(table, samples)
         mu = np.clip(np.asarray(mu, dtype=np.float64), 0.0, 1.0)
         centres = 0.5 * (self.edges[:-1] + self.edges[1:])
         along_r = np.array([np.interp(roughness, self.roughness, table[:, b])
@@ -83,21 +117,22 @@ def load_table(path=None) -> ErrorTable:
                         "--write)") from None
 
 
-def blend_weight(mu, roughness, table=None):
+def blend_weight(mu, roughness, table=None, samples=19):
     """w (...) of the regular estimate at view elevations mu = n.v (...) for a
-    material of the given (isotropic GGX) roughness."""
+    material of the given (isotropic GGX) roughness sampled with ``samples``
+    samples per pixel."""
     table = table or load_table()
-    return np.clip(table.interpolate(table.weight, mu, roughness), 0.0, 1.0)
+    return np.clip(table.interpolate(table.weight, mu, roughness, samples), 0.0, 1.0)
 
 
-def weight_curve(roughness, table=None):
+def weight_curve(roughness, table=None, samples=19):
     """(centres (B,), weights (B,)): the regular estimate's weight at the mu bins'
-    centres for one roughness, the knots of the piecewise-linear w(mu) a
-    material carries (the Hybrid's shader nodes evaluate it with
-    :func:`blend_curve`'s arithmetic)."""
+    centres for one roughness and sample count, the knots of the
+    piecewise-linear w(mu) a material carries (the Hybrid's shader nodes
+    evaluate it with :func:`blend_curve`'s arithmetic)."""
     table = table or load_table()
     centres = 0.5 * (table.edges[:-1] + table.edges[1:])
-    weights = np.clip(table.interpolate(table.weight, centres, roughness), 0.0, 1.0)
+    weights = np.clip(table.interpolate(table.weight, centres, roughness, samples), 0.0, 1.0)
     return centres, weights
 
 

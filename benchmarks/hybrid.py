@@ -4,15 +4,16 @@ the hybrid's own, on every bundled HDRI.
 For each of Blender's bundled HDRIs (a 64^2-face cube probe) and isotropic GGX
 roughness 0.1, 0.2, 0.3, 0.45 and 0.6, a sphere (64^2 pixels) is rendered by the
 brute-force integral (bake.reference, the truth), by the 3D map at Auto size
-(bake.prefilter) and by regular sampling with 19 samples (bake.sampling).
-Per bin of mu = n.v it prints each method's relative RMS of luminance, pooled
-over the HDRIs (the root of the mean square), and the least-squares blend
-weight of the regular estimate (bake.hybrid's docstring); ``--write`` stores
-the table as bake/hybrid_errors.json, the one bake.hybrid weighs with.
+(bake.prefilter) and by regular sampling with 19, 61 and 127 samples
+(bake.sampling). Per sample budget and bin of mu = n.v it prints each
+method's relative RMS of luminance, pooled over the HDRIs (the root of the
+mean square), and the least-squares blend weight of the regular estimate
+(bake.hybrid's docstring); ``--write`` stores the table as
+bake/hybrid_errors.json, the one bake.hybrid weighs with.
 
-Then the hybrid against both methods alone, per HDRI and roughness, with the
-weights derived *without* that HDRI (leave one out), so no figure judges the
-table on the scene it was measured on.
+Then the hybrid against both methods alone, per budget, HDRI and roughness,
+with the weights derived *without* that HDRI (leave one out), so no figure
+judges the table on the scene it was measured on.
 
     .venv/bin/python benchmarks/hybrid.py [--write]
 """
@@ -34,7 +35,7 @@ from bake.envmap import convert  # noqa: E402
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 ROUGHNESS = (0.1, 0.2, 0.3, 0.45, 0.6)
 EDGES = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0)
-BUDGET = 19
+BUDGETS = (19, 61, 127)
 
 
 def hdri_directory():
@@ -48,7 +49,7 @@ def hdri_directory():
 
 
 def renders(name, directory, size=64, face=64):
-    """{roughness: (mu, truth, map, regular)} luminance per sphere pixel."""
+    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel."""
     image, _ = exr.read(directory / f"{name}.exr")
     cube = convert(image[..., :3], "latlong", "cube", face)
     normals, views, mask = reference.sphere_buffers(size)
@@ -61,8 +62,9 @@ def renders(name, directory, size=64, face=64):
         model = brdf.parse(spec)
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
         baked = prefilter.prefilter(cube, spec, "3d", "auto").shade(normals, views) @ LUMINANCE
-        regular = sampling.render_regular(model, None, normals, views, budget=BUDGET,
-                                          mip=mip) @ LUMINANCE
+        regular = {budget: sampling.render_regular(model, None, normals, views, budget=budget,
+                                                   mip=mip) @ LUMINANCE
+                   for budget in BUDGETS}
         out[roughness] = (mu, truth, baked, regular)
     return out
 
@@ -79,27 +81,33 @@ def table_from(results, names):
     """The pooled error and least-squares weight table over the HDRIs ``names``."""
     bins = len(EDGES) - 1
     map_error = np.zeros((len(ROUGHNESS), bins))
-    regular_error = np.zeros_like(map_error)
-    weight = np.zeros_like(map_error)
+    regular_error = np.zeros((len(BUDGETS), len(ROUGHNESS), bins))
+    weight = np.zeros_like(regular_error)
     for i, roughness in enumerate(ROUGHNESS):
-        relative = {"map": [], "regular": []}
-        numerator, denominator = np.zeros(bins), np.zeros(bins)
+        relative = []
         for name in names:
-            mu, truth, baked, regular = results[name][roughness]
-            index = np.clip(np.searchsorted(EDGES, mu, side="right") - 1, 0, bins - 1)
-            scale = np.maximum(np.bincount(index, truth ** 2, bins) /
-                               np.maximum(np.bincount(index, None, bins), 1), 1e-300)
-            for key, estimate in (("map", baked), ("regular", regular)):
-                errors, truth_squares = binned_squares(mu, truth, estimate)
-                relative[key].append(errors / np.maximum(truth_squares, 1e-300))
-            numerator += np.bincount(index, (baked - truth) * (baked - regular), bins) / scale
-            denominator += np.bincount(index, (baked - regular) ** 2, bins) / scale
-        map_error[i] = np.sqrt(np.mean(relative["map"], axis=0))
-        regular_error[i] = np.sqrt(np.mean(relative["regular"], axis=0))
-        weight[i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
+            mu, truth, baked, _ = results[name][roughness]
+            errors, truth_squares = binned_squares(mu, truth, baked)
+            relative.append(errors / np.maximum(truth_squares, 1e-300))
+        map_error[i] = np.sqrt(np.mean(relative, axis=0))
+        for s, budget in enumerate(BUDGETS):
+            relative = []
+            numerator, denominator = np.zeros(bins), np.zeros(bins)
+            for name in names:
+                mu, truth, baked, regular = results[name][roughness]
+                regular = regular[budget]
+                index = np.clip(np.searchsorted(EDGES, mu, side="right") - 1, 0, bins - 1)
+                scale = np.maximum(np.bincount(index, truth ** 2, bins) /
+                                   np.maximum(np.bincount(index, None, bins), 1), 1e-300)
+                errors, truth_squares = binned_squares(mu, truth, regular)
+                relative.append(errors / np.maximum(truth_squares, 1e-300))
+                numerator += np.bincount(index, (baked - truth) * (baked - regular), bins) / scale
+                denominator += np.bincount(index, (baked - regular) ** 2, bins) / scale
+            regular_error[s, i] = np.sqrt(np.mean(relative, axis=0))
+            weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
     return hybrid.ErrorTable(ROUGHNESS, EDGES, map_error, regular_error, weight,
-                             {"hdris": list(names), "budget": BUDGET, "probe_face": 64,
-                              "sphere": 64, "brdf": "ggx (isotropic)"})
+                             {"hdris": list(names), "probe_face": 64, "sphere": 64,
+                              "brdf": "ggx (isotropic)"}, BUDGETS)
 
 
 def relative_rms(estimate, truth):
@@ -120,31 +128,43 @@ def main():
         print(f"measured {name} ({time.perf_counter() - start:.0f} s)", flush=True)
     table = table_from(results, names)
     print("\npooled relative RMS per mu bin, map / regular, and the weight w of regular:")
-    print(f"{'roughness':>9s} " + " ".join(f"{f'{a:.2f}-{b:.2f}':>13s}"
-                                          for a, b in zip(EDGES[:-1], EDGES[1:], strict=True)))
-    for i, roughness in enumerate(ROUGHNESS):
-        print(f"{roughness:9.2f} " + " ".join(f"{m:6.3f}/{r:6.3f}" for m, r in
-                                              zip(table.map[i], table.regular[i], strict=True))
-              + "   w " + " ".join(f"{w:.2f}" for w in table.weight[i]))
+    for s, budget in enumerate(BUDGETS):
+        print(f"{budget} samples")
+        print(f"{'roughness':>9s} " + " ".join(f"{f'{a:.2f}-{b:.2f}':>13s}"
+                                              for a, b in zip(EDGES[:-1], EDGES[1:], strict=True)))
+        for i, roughness in enumerate(ROUGHNESS):
+            print(f"{roughness:9.2f} " + " ".join(
+                f"{m:6.3f}/{r:6.3f}" for m, r in zip(table.map[i], table.regular[s, i],
+                                                     strict=True))
+                  + "   w " + " ".join(f"{w:.2f}" for w in table.weight[s, i]))
     if args.write:
         hybrid.TABLE_PATH.write_text(json.dumps(table.to_json(), indent=1) + "\n")
         print(f"wrote {hybrid.TABLE_PATH}")
-    print("\nwhole sphere, relative RMS (weights measured without the HDRI itself):")
-    print(f"{'hdri':10s} {'rough':>5s} {'map':>6s} {'regular':>7s} {'hybrid':>6s}  best alone")
-    wins = worse = 0
-    for name in names:
-        others = table_from(results, [n for n in names if n != name])
-        for roughness in ROUGHNESS:
-            mu, truth, baked, regular = results[name][roughness]
-            weight = hybrid.blend_weight(mu, roughness, others)
-            blended = (1.0 - weight) * baked + weight * regular
-            errors = [relative_rms(x, truth) for x in (baked, regular, blended)]
-            wins += errors[2] < min(errors[:2])
-            worse += errors[2] > max(errors[:2])
-            print(f"{name:10s} {roughness:5.2f} {errors[0]:6.3f} {errors[1]:7.3f} "
-                  f"{errors[2]:6.3f}  {min(errors[:2]):6.3f}", flush=True)
-    cases = len(names) * len(ROUGHNESS)
-    print(f"hybrid below both alone in {wins} of {cases} cases, above both in {worse}")
+    print("\nwhole sphere, relative RMS (weights measured without the HDRI itself); "
+          "'fixed w' is the hybrid weighted as for 19 samples:")
+    print(f"{'samples':>7s} {'hdri':10s} {'rough':>5s} {'map':>6s} {'regular':>7s} "
+          f"{'hybrid':>6s} {'fixed w':>7s}  best alone")
+    for budget in BUDGETS:
+        wins = worse = fixed_wins = 0
+        for name in names:
+            others = table_from(results, [n for n in names if n != name])
+            for roughness in ROUGHNESS:
+                mu, truth, baked, regular = results[name][roughness]
+                regular = regular[budget]
+                blends = []
+                for samples in (budget, BUDGETS[0]):
+                    weight = hybrid.blend_weight(mu, roughness, others, samples)
+                    blends.append((1.0 - weight) * baked + weight * regular)
+                errors = [relative_rms(x, truth) for x in (baked, regular, *blends)]
+                wins += errors[2] < min(errors[:2])
+                fixed_wins += errors[3] < min(errors[:2])
+                worse += errors[2] > max(errors[:2])
+                print(f"{budget:7d} {name:10s} {roughness:5.2f} {errors[0]:6.3f} "
+                      f"{errors[1]:7.3f} {errors[2]:6.3f} {errors[3]:7.3f}  "
+                      f"{min(errors[:2]):6.3f}", flush=True)
+        cases = len(names) * len(ROUGHNESS)
+        print(f"{budget} samples: hybrid below both alone in {wins} of {cases} cases "
+              f"(weighted as for 19 samples: {fixed_wins}), above both in {worse}")
 
 
 if __name__ == "__main__":

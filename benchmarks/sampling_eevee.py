@@ -98,7 +98,8 @@ def glossy(name, runtime=None):
 def runtime(budget, for_hybrid=False):
     data, meta = sampling_runtime.pack(probe, spec, budget=budget, height=256)
     if for_hybrid:
-        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])))
+        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
+                                               samples=len(meta["prob"]))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
     return texture(f"runtime{budget}", data, meta), len(meta["prob"])
 

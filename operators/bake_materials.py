@@ -140,11 +140,12 @@ def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid):
     """The runtime-sampling texture (bake.sampling_runtime.pack) of ``rows``
     lat-long rows as steps (no bpy: runs on a worker thread): one message, then
     ((image, meta), reason); a Hybrid's meta carries its w(mu) knots
-    (bake.hybrid.weight_curve at the lobe's roughness)."""
+    (bake.hybrid.weight_curve at the lobe's roughness and the pattern's sample count)."""
     yield 0.0, f"pre-blurring {rows}-row probe levels and the albedo table for runtime sampling"
     image, meta = sampling_runtime.pack(probe, spec, layout=layout, budget=samples, height=rows)
     if for_hybrid:
-        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])))
+        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
+                                               samples=len(meta["prob"]))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
     reason = (f"runtime sampling: {len(meta['prob'])} samples over {meta['levels']} levels of "
               f"{rows} rows ({why})")
