@@ -4,11 +4,12 @@ the hybrid's own, on every bundled HDRI.
 For each of Blender's bundled HDRIs (a 64^2-face cube probe) and isotropic GGX
 roughness 0.1, 0.2, 0.3, 0.45 and 0.6, a sphere (64^2 pixels) is rendered by the
 brute-force integral (bake.reference, the truth), by the 3D map at Auto size
-(bake.prefilter) and by regular sampling with 19, 61 and 127 samples
-(bake.sampling). Per sample budget and bin of mu = n.v it prints each
-method's relative RMS of luminance, pooled over the HDRIs (the root of the
-mean square), and the least-squares blend weight of the regular estimate
-(bake.hybrid's docstring); ``--write`` stores the table as
+(bake.prefilter) and by regular sampling with 19, 61 and 127 samples as the
+Runtime Sampling nodes compute it (bake.sampling_runtime.shade, their NumPy
+twin, over the level stack glossy.bake_materials makes). Per sample budget
+and bin of mu = n.v it prints each method's relative RMS of luminance,
+pooled over the HDRIs (the root of the mean square), and the least-squares
+blend weight of the regular estimate (bake.hybrid's docstring); ``--write`` stores the table as
 bake/hybrid_errors.json, the one bake.hybrid weighs with.
 
 Then the hybrid against both methods alone, per budget, HDRI and roughness,
@@ -29,7 +30,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bake import brdf, exr, hybrid, prefilter, reference, sampling  # noqa: E402
+from bake import brdf, exr, hybrid, prefilter, reference, sampling_runtime  # noqa: E402
 from bake.envmap import convert  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -48,6 +49,15 @@ def hdri_directory():
         "studiolights" / "world"
 
 
+def runtime_twin(cube, spec, budget, normals, views):
+    """(N, 3) the Runtime Sampling nodes' radiance (bake.sampling_runtime.shade, their
+    NumPy twin) with the level stack glossy.bake_materials makes for this probe
+    (twice the face's rows, a power of two): the estimate the Hybrid blends."""
+    rows = 1 << int(np.floor(np.log2(2 * cube.shape[0])))
+    atlas, meta = sampling_runtime.pack(cube, spec, layout="cube", budget=budget, height=rows)
+    return sampling_runtime.shade(atlas, meta, normals, views)
+
+
 def renders(name, directory, size=64, face=64):
     """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel."""
     image, _ = exr.read(directory / f"{name}.exr")
@@ -55,15 +65,13 @@ def renders(name, directory, size=64, face=64):
     normals, views, mask = reference.sphere_buffers(size)
     normals, views = normals[mask], views[mask]
     mu = np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0)
-    mip = sampling.MipProbe(cube)
     out = {}
     for roughness in ROUGHNESS:
         spec = f"ggx:roughness={roughness}"
         model = brdf.parse(spec)
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
         baked = prefilter.prefilter(cube, spec, "3d", "auto").shade(normals, views) @ LUMINANCE
-        regular = {budget: sampling.render_regular(model, None, normals, views, budget=budget,
-                                                   mip=mip) @ LUMINANCE
+        regular = {budget: runtime_twin(cube, spec, budget, normals, views) @ LUMINANCE
                    for budget in BUDGETS}
         out[roughness] = (mu, truth, baked, regular)
     return out
@@ -77,7 +85,7 @@ def binned_squares(mu, truth, estimate):
     return errors, scale
 
 
-def table_from(results, names):
+def table_from(results, names, face=64):
     """The pooled error and least-squares weight table over the HDRIs ``names``."""
     bins = len(EDGES) - 1
     map_error = np.zeros((len(ROUGHNESS), bins))
@@ -106,7 +114,7 @@ def table_from(results, names):
             regular_error[s, i] = np.sqrt(np.mean(relative, axis=0))
             weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
     return hybrid.ErrorTable(ROUGHNESS, EDGES, map_error, regular_error, weight,
-                             {"hdris": list(names), "probe_face": 64, "sphere": 64,
+                             {"hdris": list(names), "probe_face": face, "sphere": 64,
                               "brdf": "ggx (isotropic)"}, BUDGETS)
 
 
@@ -118,15 +126,17 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true",
                         help="store the pooled table as bake/hybrid_errors.json")
+    parser.add_argument("--face", type=int, default=64,
+                        help="probe face size (the committed table: 64)")
     args = parser.parse_args()
     directory = hdri_directory()
     names = sorted(p.stem for p in directory.glob("*.exr"))
     results = {}
     for name in names:
         start = time.perf_counter()
-        results[name] = renders(name, directory)
+        results[name] = renders(name, directory, face=args.face)
         print(f"measured {name} ({time.perf_counter() - start:.0f} s)", flush=True)
-    table = table_from(results, names)
+    table = table_from(results, names, args.face)
     print("\npooled relative RMS per mu bin, map / regular, and the weight w of regular:")
     for s, budget in enumerate(BUDGETS):
         print(f"{budget} samples")
