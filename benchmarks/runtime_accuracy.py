@@ -8,9 +8,13 @@ level stack at the probe's own detail (2 x face rows, as the bake's Auto);
 relative RMS of luminance against bake.reference.render through the same
 probe (so the probe's resolution is not part of this error: it is the
 estimator's). Separates what more samples buy from what a finer probe buys.
+With ``--taps 4`` (or a list, 1,4,8) each budget is also shaded with up to
+that many lookups along each sample's footprint (sampling_runtime.shade's
+``taps``, not yet in the nodes).
 
     .venv/bin/python benchmarks/runtime_accuracy.py [--spec ggx:roughness=0.3]
         [--budgets 19,61,127,252] [--face 64] [--size 48] [--hdri night ...]
+        [--taps 1,4]
 """
 
 import argparse
@@ -36,7 +40,9 @@ def main():
     parser.add_argument("--face", type=int, default=64, help="cube probe face (px)")
     parser.add_argument("--size", type=int, default=48, help="sphere image size (px)")
     parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    parser.add_argument("--taps", default="1", help="lookups per sample footprint, e.g. 1,4")
     args = parser.parse_args()
+    taps = [int(t) for t in args.taps.split(",")]
     model = brdf.parse(args.spec)
     budgets = [int(b) for b in args.budgets.split(",")]
     normals, views, mask = reference.sphere_buffers(args.size)
@@ -56,12 +62,15 @@ def main():
         for budget in budgets:
             atlas, meta = sampling_runtime.pack(probe, args.spec, budget=budget,
                                                 height=2 * args.face)
-            estimate = sampling_runtime.shade(atlas, meta, normals, views, tangents) @ LUMINANCE
-            errors.append(float(np.sqrt(np.mean((estimate - truth) ** 2)
-                                        / np.mean(truth ** 2))))
-            counts.append(len(meta["prob"]))
+            for tap in taps:
+                estimate = sampling_runtime.shade(atlas, meta, normals, views, tangents,
+                                                  taps=tap) @ LUMINANCE
+                errors.append(float(np.sqrt(np.mean((estimate - truth) ** 2)
+                                            / np.mean(truth ** 2))))
+                counts.append(f"{len(meta['prob'])}x{tap}" if len(taps) > 1 else
+                              f"{len(meta['prob'])} smp")
         if header is None:
-            header = f"{'HDRI':10s} " + " ".join(f"{f'{c} smp':>8s}" for c in counts)
+            header = f"{'HDRI':10s} " + " ".join(f"{c:>8s}" for c in counts)
             print(header, flush=True)
         print(f"{name:10s} " + " ".join(f"{e:8.3f}" for e in errors)
               + f"   ({time.perf_counter() - start:.0f} s)", flush=True)
