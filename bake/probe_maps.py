@@ -54,6 +54,7 @@ class ProbeMaps:
         self._row_locks: dict = {}
         self._filtered: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self._filtered_bytes = 0
+        self._kept: dict = {}
         #: How many conversions, transforms and lobe filterings were computed, and
         #: how many filterings were reused (for tests and benchmarks).
         self.computed = {"maps": 0, "spectra": 0, "filtered": 0, "reused": 0}
@@ -97,6 +98,19 @@ class ProbeMaps:
                 self.computed["spectra"] += 1
             return self._spectra[rows]
 
+
+    def kept(self, key, compute):
+        """``compute()`` the first time this hashable ``key`` is asked for, the kept
+        result after: other products of the probe alone that every material
+        shares (bake.sampling_runtime's pre-blurred level stack). Do not modify
+        the result."""
+        with self._lock:
+            if key in self._kept:
+                self.computed["reused"] += 1
+                return self._kept[key]
+        result = compute()
+        with self._lock:
+            return self._kept.setdefault(key, result)
 
     def filtered(self, profile, rows: int, compute):
         """The probe filtered by a lobe of this profile at ``rows`` rows: ``compute()`` the

@@ -241,9 +241,13 @@ def pattern_for_budget(budget: int, anisotropic: bool, n0: int = 6) -> Pattern:
 def lobe_of(model) -> Lobe:
     """The sampled lobe of a library BRDF: Cycles' GGX, Beckmann and
     Ashikhmin-Shirley (with their anisotropy and rotation), the Principled
-    metallic GGX, and the Kurt model (its strongest lobe). BakeError otherwise."""
+    metallic GGX, the Principled BSDF without a coat (its metal and dielectric
+    specular share one GGX lobe; their Fresnel terms and the multiscatter
+    energy scale it), and the Kurt model (its strongest lobe). BakeError
+    otherwise (a coat adds a second lobe of its own roughness)."""
     name = getattr(model, "name", "")
-    if name in ("ggx", "principled_metallic", "ggx_multiscatter"):
+    if name in ("ggx", "principled_metallic", "ggx_multiscatter") or \
+            name == "principled" and model.coat == 0.0:
         return Lobe("ggx", model.ax, model.ay, model.angle)
     if name == "beckmann":
         return Lobe("beckmann", model.ax, model.ay, model.angle)

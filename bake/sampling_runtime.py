@@ -62,6 +62,7 @@ from . import brdf
 from .atlas import _lookup, _pad
 from .brdf.microfacet import ggx_d, ggx_lambda, sample_ggx_vndf
 from .errors import BakeError
+from .probe_maps import probe_maps
 from .sampling import DEFAULTS, lobe_of, pattern_for_budget
 from .sampling_atlas import AtlasProbe, pack_levels
 
@@ -148,7 +149,10 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     _, default_xi0, default_bias = DEFAULTS["ggx"]
     xi0 = default_xi0 if xi0 is None else float(xi0)
     bias = default_bias if bias is None else float(bias)
-    levels, meta = pack_levels(probe, layout, height, filter)
+    # The level stack depends on the probe alone: made once for all its materials.
+    levels, meta = probe_maps(probe, layout).kept(
+        ("runtime levels", height, filter), lambda: pack_levels(probe, layout, height, filter))
+    meta = dict(meta)
     height, width = meta["slice_height"], meta["slice_width"]
     count_phi = ALBEDO_PHI if lobe.anisotropic else 1
     if ALBEDO_MU > width or count_phi > height:

@@ -53,9 +53,11 @@ from bake import (  # noqa: E402
     brdf,
     envmap,
     exr,
+    hybrid,
     lobes,
     prefilter,
     probe_maps,
+    sampling_runtime,
     slice_basis,
 )
 from bake.reference import reflected_radiance  # noqa: E402
@@ -297,10 +299,23 @@ def full_3d_map(forest):
 DIELECTRIC = ("ggx:roughness=0.5", "0.8/0.8/0.8")  # Principled's defaults: roughness 0.5
 
 
-def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None):
+def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid_too=False):
     """What glossy.bake_materials does for one material at Auto size: (seconds, baked).
-    ``steps``: a list that receives the duration of each step (a UI timer tick)."""
+    ``steps``: a list that receives the duration of each step (a UI timer tick).
+    ``hybrid_too``: also the Hybrid's runtime-sampling texture, what the default
+    method (Auto) bakes for an isotropic GGX lobe (glossy_addon.method_choice):
+    the level stack of the probe's own detail (twice a face's rows), 19
+    samples, the blend weights, written beside the map."""
     start = time.perf_counter()
+    if hybrid_too:
+        tick = time.perf_counter()
+        image, meta = sampling_runtime.pack(probe, spec, budget=19, height=2 * probe.shape[0])
+        centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
+                                               samples=len(meta["prob"]))
+        meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
+        exr.write(folder / "runtime.exr", image, meta)
+        if steps is not None:
+            steps.append(time.perf_counter() - tick)
     generator = prefilter.prefilter_steps(probe, spec, "3d", "auto", layout="cube")
     tick = time.perf_counter()
     while True:
@@ -342,7 +357,7 @@ def auto_bakes(quick):
           f"brute-force integral over the probe's reconstruction; previous path: 16 slices "
           f"of 256x128:")
     print(f"   {'material':28s} {'Auto s':>7s} {'step s':>6s} {'rows':>5s} {'error':>7s}   "
-          f"{'previous s':>10s} {'error':>7s} {'speed-up':>8s}")
+          f"{'previous s':>10s} {'error':>7s} {'speed-up':>8s}   {'default s':>9s}")
     cases = [(f"ggx:roughness={r}", None) for r in (0.05, 0.1, 0.3, 0.6, 1.0)]
     cases.append(DIELECTRIC)
     with tempfile.TemporaryDirectory() as tmp:
@@ -360,12 +375,16 @@ def auto_bakes(quick):
             old_map = prefilter.BakedMap("3d", old, {**baked.meta, "size": 128})
             old_error = relative_rms(old_map.shade(normals, views), truth)
             label = spec + (f" + diffuse {diffuse}" if diffuse else "")
+            cold()
+            default = bake_like_blender(probe, spec, diffuse, Path(tmp), hybrid_too=True)[0]
             print(f"   {label:28s} {elapsed:7.2f} {max(steps):6.2f} {baked.meta['size']:5d} "
                   f"{error:7.4f}   "
                   f"{old_time:10.2f} {old_error:7.4f} {old_time / elapsed:7.1f}x   "
-                  f"[{baked.meta['size_reason']}]", flush=True)
+                  f"{default:9.2f}   [{baked.meta['size_reason']}]", flush=True)
             if diffuse:
                 print("   (the previous path's figures are for the glossy part only)")
+    print("   default s: the same bake with the Hybrid's runtime texture too, as the default "
+          "method (Auto) bakes an isotropic GGX lobe")
 
 
 def eight_materials():
@@ -397,7 +416,20 @@ def eight_materials():
             exr.write(Path(tmp) / "own.exr", image, meta,
                       half=atlas.storage_precision(image) == "half")
             own += time.perf_counter() - start
+        # The same with the default method: the Hybrid for the seven GGX lobes (its
+        # runtime texture's level stack is the probe's alone, made once per probe).
+        default_singles = []
+        for spec in specs:
+            cold()
+            default_singles.append(bake_like_blender(
+                probe, spec, folder=Path(tmp), hybrid_too=spec.startswith("ggx"))[0])
+        cold()
+        start = time.perf_counter()
+        for spec in specs:
+            bake_like_blender(probe, spec, folder=Path(tmp), hybrid_too=spec.startswith("ggx"))
+        default_together = time.perf_counter() - start
     mean = float(np.mean(singles))
+    default_mean = float(np.mean(default_singles))
     profiles = [s.lobes[0].profile for spec in specs for s in lobes.fit(spec, slices=16).slices]
     joint = len(slice_basis.choose(profiles, lobes.GAMMA)[0])
     print(f"6. eight materials (GGX 0.05-0.8, Beckmann 0.4) from one probe: {together:.2f} s "
@@ -408,6 +440,9 @@ def eight_materials():
           f"for the eight, {own / mean:.1f}x the mean single bake even if filtering were "
           f"free; filtered {filtered} lobe shapes, where one basis across all eight "
           f"materials' 128 profiles would need {joint} (bake.slice_basis, same tolerance)")
+    print(f"   with the default method (Auto: the Hybrid for the seven GGX lobes): "
+          f"{default_together:.2f} s, against {default_mean:.2f} s for the mean single cold "
+          f"bake (ratio {default_together / default_mean:.1f})")
     # Eight tints of one dielectric (GGX 0.3 with a diffuse part): the lobes' shapes
     # are equal, so their filtered maps (and the white irradiance) are shared.
     tints = [f"{0.1 + 0.1 * i:g}/{0.9 - 0.1 * i:g}/0.5" for i in range(8)]

@@ -16,6 +16,7 @@ same pixels.
     .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
         [--eevee 4] [--probe 64|auto] [--hdri sunset ...]
         [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples)
+        [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
 """
 
 import argparse
@@ -51,10 +52,13 @@ def main():
     print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "
           f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s}", flush=True)
     for case in args.case or CASES:
-        method, roughness, anisotropy, samples = case.split(":")
+        method, roughness, anisotropy, samples, *principled = case.split(":")
         for hdri in hdris:
             work = Path(tempfile.mkdtemp(prefix="glossy-rv-"))
             spheres = [["S", method, float(roughness), float(anisotropy), 0.0, int(samples)]]
+            if principled:  # a Principled BSDF's float inputs, "Metallic=1,IOR=1.45"
+                spheres[0].append({key: float(value) for key, value in
+                                   (item.split("=") for item in principled[0].split(","))})
             start = time.perf_counter()
             process = subprocess.run(
                 [sys.executable, str(script), str(studio_lights() / f"{hdri}.exr"), str(work),

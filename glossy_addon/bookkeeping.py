@@ -19,18 +19,19 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
         spec = material_settings.brdf_spec()
     except BakeError as error:  # From Material with an unreadable tree: never up to date
         spec = f"unreadable: {error}"
-    key = {"spec": spec, "method": material_settings.method,
+    method = material_settings.method_used()
+    key = {"spec": spec, "method": method,
            "slices": material_settings.slices, "size": material_settings.map_size,
            "size_mode": material_settings.size_mode,
            "lobes": (material_settings.lobes
-                     if material_settings.method in ("3d", "hybrid") else 1),
+                     if method in ("3d", "hybrid") else 1),
            "diffuse": [round(c, 6) for c in material_settings.diffuse_colour()],
            "lamps": ([material_settings.lamp_parameterization, material_settings.lamp_size,
                       material_settings.lamp_size_h, material_settings.lamp_method,
                       material_settings.lamp_terms]
                      if material_settings.lamps and material_settings.lamp_path else None),
            "probe": probe_key}
-    if material_settings.method in ("runtime", "hybrid"):
+    if method in ("runtime", "hybrid"):
         key["samples"] = material_settings.samples
     if material_settings.model == "MATERIAL" and not spec.startswith("unreadable"):
         from .material_source import parts  # the read spec, weights and images

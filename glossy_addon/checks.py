@@ -4,9 +4,12 @@ Each failure is one BakeError naming the material and the field, raised
 before a file is written or a property changed (bake_materials._prepare).
 """
 
+import bpy
+
 from ..bake import brdf, sampling_runtime, separable
 from ..bake.errors import BakeError
 from ..bake.resolution import MIN_ROWS
+from .method_choice import SHADER_LOOPS
 
 #: Rows of the tallest texture a GPU takes (GL_MAX_TEXTURE_SIZE of current
 #: desktop GPUs and of Mesa's llvmpipe); an atlas taller than this renders
@@ -41,9 +44,10 @@ def check_settings(material) -> None:
         raise BakeError(f"{material.name}: Fresnel IOR {settings.fresnel_ior:g} has no "
                         f"meaning here: use an index above 1 (glass 1.5), or 0 for a plain "
                         f"sum of glossy and diffuse")
-    lobes = settings.lobes if settings.method in ("3d", "hybrid") else 1
+    method = settings.method_used()
+    lobes = settings.lobes if method in ("3d", "hybrid") else 1
     if settings.size_mode == "FIXED":
-        rows = atlas_rows(settings.method, settings.slices, lobes, settings.map_size)
+        rows = atlas_rows(method, settings.slices, lobes, settings.map_size)
         if rows > TEXTURE_LIMIT:
             fits = TEXTURE_LIMIT // (settings.slices * lobes) - 2
             raise BakeError(
@@ -51,17 +55,21 @@ def check_settings(material) -> None:
                 f"{settings.map_size} rows make a {rows}-row texture, past the GPU's "
                 f"{TEXTURE_LIMIT}-row limit (EEVEE would render it wrong): use a map size "
                 f"of at most {fits}, fewer slices, or Auto")
-    elif settings.method in ("3d", "hybrid") and \
+    elif method in ("3d", "hybrid") and \
             atlas_rows("3d", settings.slices, lobes, MIN_ROWS) > \
             TEXTURE_LIMIT:
         raise BakeError(f"{material.name}: {settings.slices} slices x {lobes} lobes do not "
                         f"fit the GPU's {TEXTURE_LIMIT}-row texture limit at any map size")
     model = brdf.parse(settings.brdf_spec())  # a bad spec: refused here, with its message
-    if settings.method in ("runtime", "hybrid"):
+    if method in ("runtime", "hybrid"):
+        if bpy.app.version < SHADER_LOOPS:
+            raise BakeError(f"{material.name}: the {method} method's shader loop needs "
+                            f"Blender {'.'.join(map(str, SHADER_LOOPS))} or newer (choose the "
+                            f"3D Map)")
         try:
             sampling_runtime.check(model.spec, settings.samples)
         except BakeError as error:
-            raise BakeError(f"{material.name}: {settings.method} method: {error} (choose the "
+            raise BakeError(f"{material.name}: {method} method: {error} (choose the "
                             f"3D Map)") from None
     if settings.lamps:
         try:

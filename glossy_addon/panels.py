@@ -3,6 +3,7 @@
 import bpy
 
 from . import ownership
+from .method_choice import choose
 from .world import find_environment_image
 
 
@@ -229,11 +230,14 @@ class GLOSSY_PT_material(bpy.types.Panel):
             layout.prop(settings, "diffuse")
             layout.prop(settings, "fresnel_ior")
         column = _props(layout, settings, ("method",))
-        if settings.method in ("3d", "2d", "hybrid"):
+        method, why = choose(settings)
+        if why:
+            _reason(column, f"Auto: {why}", icon="INFO")
+        if method in ("3d", "2d", "hybrid"):
             column.prop(settings, "slices")
-        if settings.method in ("3d", "hybrid"):
+        if method in ("3d", "hybrid"):
             column.prop(settings, "lobes")
-        if settings.method in ("runtime", "hybrid"):
+        if method in ("runtime", "hybrid"):
             column.prop(settings, "samples")
         column.prop(settings, "size_mode")
         column.prop(settings, "map_size",

@@ -165,7 +165,10 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(
-        name="Method", items=[("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
+        name="Method", items=[("auto", "Auto", "The Hybrid for an isotropic GGX lobe, Runtime "
+                               "Sampling for an anisotropic one, the 3D map otherwise "
+                               "(glossy_addon.method_choice; the panel says which and why)"),
+                              ("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
                               ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)"),
                               ("split-sum", "Split Sum", "GGX MIP chain + DFG (GGX only)"),
                               ("runtime", "Runtime Sampling", "Regular sampling of the GGX "
@@ -174,7 +177,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
                               ("hybrid", "Hybrid", "3D map and runtime sampling blended per "
                                "pixel by their measured errors (bake.hybrid); runtime "
                                "sampling alone for anisotropic lobes")],
-        default="3d")
+        default="auto")
     anisotropy: bpy.props.FloatProperty(
         name="Anisotropy", description="Cycles' Anisotropy (GGX, Beckmann, Ashikhmin-Shirley): "
         "stretches the lobe along the tangent (> 0) or across it (< 0)",
@@ -364,6 +367,13 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         if self.anisotropy != 0.0:
             lobe = f",anisotropy={self.anisotropy:g},rotation={self.rotation:g}"
         return f"{self.model}:roughness={self.roughness:g}{lobe},color={color}"
+
+    def method_used(self) -> str:
+        """The method a bake uses: Method, or what Auto chooses for this BRDF
+        (glossy_addon.method_choice)."""
+        from .method_choice import choose
+
+        return choose(self)[0]
 
     def diffuse_colour(self) -> tuple:
         """(r, g, b) of the diffuse part baked as irradiance (black: none)."""

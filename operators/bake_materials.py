@@ -15,6 +15,7 @@ from ..glossy_addon.checks import check_settings
 from ..glossy_addon.lamps import lamp_set, scene_lamps
 from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent, stash_original
+from ..glossy_addon.method_choice import MIN_RUNTIME_ROWS
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
@@ -133,6 +134,9 @@ def runtime_height(settings, probe, layout) -> tuple:
     rows = 1 << max(2, int(np.floor(np.log2(max(wanted, 4)))))
     if rows != wanted:
         why += f", rounded down to a power of two from {wanted}"
+    if settings.size_mode != "FIXED" and rows < MIN_RUNTIME_ROWS:
+        rows, why = MIN_RUNTIME_ROWS, f"{why}, raised to {MIN_RUNTIME_ROWS}, the least that " \
+                                      f"holds the albedo table"
     return rows, why
 
 
@@ -224,7 +228,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     (settings.lamp_path or not wants_lamps):
                 continue
             stem = f"{bpy.path.clean_name(obj.name)}_{bpy.path.clean_name(material.name)}"
-            path = ownership.claim(folder, stem, f"_{settings.method}.exr", material, taken)
+            method = settings.method_used()
+            path = ownership.claim(folder, stem, f"_{method}.exr", material, taken)
             taken.add(path)
             diffuse_path = lamp_path = None
             runtime_path = None
@@ -233,23 +238,23 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             if settings.model == "MATERIAL" and isotropic:
                 found = material_parts(material)
                 knots = found.roughness_set
-                variants = map_variants(found, colour=settings.method in ("3d", "2d"))
-                if variants and settings.method in ("3d", "2d", "hybrid"):
+                variants = map_variants(found, colour=method in ("3d", "2d"))
+                if variants and method in ("3d", "2d", "hybrid"):
                     order = sorted({r for r, _, _ in variants if r is not None})
                     for roughness, colour, _ in variants:
                         suffix = (f"_r{order.index(roughness)}" if roughness is not None
                                   else "") + (f"_{colour}" if colour is not None else "")
                         knot_path = ownership.claim(folder, stem,
-                                                    f"_{settings.method}{suffix}.exr",
+                                                    f"_{method}{suffix}.exr",
                                                     material, taken)
                         taken.add(knot_path)
                         knot_paths.append((roughness, colour, knot_path))
                 elif knots:
                     self._warnings.append(
                         f"{material.name}: the roughness texture is taken at its mean with the "
-                        f"{settings.method} method (the 3D map, 2D map and Hybrid blend maps "
+                        f"{method} method (the 3D map, 2D map and Hybrid blend maps "
                         f"baked at several roughnesses)")
-            if settings.method == "hybrid" and isotropic:
+            if method == "hybrid" and isotropic:
                 runtime_path = ownership.claim(folder, stem, "_hybrid_runtime.exr", material,
                                                taken)
                 taken.add(runtime_path)
@@ -259,19 +264,19 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             if wants_lamps:
                 lamp_path = ownership.claim(folder, stem, "_lamps.exr", material, taken)
                 taken.add(lamp_path)
-            if not isotropic and settings.method == "hybrid":
+            if not isotropic and method == "hybrid":
                 self._warnings.append(
                     f"{material.name}: anisotropic BRDF: the Hybrid uses runtime sampling "
                     f"alone (the 3D map needs an isotropic lobe)")
-            elif not isotropic and settings.method != "runtime":
+            elif not isotropic and method != "runtime":
                 if not wants_lamps:
                     raise BakeError(
                         f"{material.name}: {settings.brdf_spec()} is anisotropic: the "
-                        f"{settings.method} map needs an isotropic BRDF; choose the Runtime "
+                        f"{method} map needs an isotropic BRDF; choose the Runtime "
                         f"Sampling or Hybrid method (or add a lamp and turn on Lamps for its "
                         f"lamp response alone)")
                 self._warnings.append(
-                    f"{material.name}: anisotropic BRDF: lamps only (the {settings.method} map "
+                    f"{material.name}: anisotropic BRDF: lamps only (the {method} map "
                     f"needs an isotropic BRDF; Runtime Sampling and Hybrid reflect the "
                     f"environment), the environment reflection is left out")
             todo.append((material.name, path, diffuse_path, lamp_path, runtime_path,
@@ -286,9 +291,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         or neither, so a bake stopped between steps leaves nothing. Returns the step's
         message."""
         settings = material.glossy
+        method = settings.method_used()
         spec = settings.brdf_spec()
         isotropic = brdf.parse(spec).isotropic
-        sampled = settings.method == "runtime" or (settings.method == "hybrid" and not isotropic)
+        sampled = method == "runtime" or (method == "hybrid" and not isotropic)
         if not isotropic and not sampled:  # lamps only (checked in _prepare)
             path = diffuse_path = None
         factors = None
@@ -313,7 +319,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         if sampled:
             image, atlas_meta = runtime
             rows, reason, runtime = atlas_meta["slice_height"], runtime_reason, None
-        elif settings.method == "split-sum":
+        elif method == "split-sum":
             face = 1 << max(2, int(np.log2(max(settings.map_size, 4))))
             baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                 probe, spec, "split-sum", face, layout=layout)), 0.1, 0.85)
@@ -321,16 +327,16 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
             variants = {(r, c): variant_spec for r, c, variant_spec in map_variants(
-                material_parts(material), colour=settings.method in ("3d", "2d"))} \
+                material_parts(material), colour=method in ("3d", "2d"))} \
                 if knot_paths else {}
             jobs = [(r, c, knot_path, variants[(r, c)]) for r, c, knot_path in knot_paths] \
                 or [(None, None, path, spec)]
             start = 0.3 if runtime is not None else 0.1
             for index, (roughness, colour, job_path, job_spec) in enumerate(jobs):
                 baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
-                    probe, job_spec, "3d" if settings.method == "hybrid" else settings.method,
+                    probe, job_spec, "3d" if method == "hybrid" else method,
                     size, slices=settings.slices,
-                    lobes_count=settings.lobes if settings.method in ("3d", "hybrid") else 1,
+                    lobes_count=settings.lobes if method in ("3d", "hybrid") else 1,
                     layout=layout, max_size=max_size)),
                     start + (0.85 - start) * index / len(jobs),
                     start + (0.85 - start) * (index + 1) / len(jobs))

@@ -32,15 +32,16 @@ def _lobe_widths(obj):
         if material is None:
             continue
         settings = material.glossy
-        if settings.method in ("runtime", "hybrid"):  # the sampled lobe's narrow axis
+        method = settings.method_used()
+        if method in ("runtime", "hybrid"):  # the sampled lobe's narrow axis
             try:
                 lobe, _ = sampling_runtime.check(settings.brdf_spec(), settings.samples)
                 widths.append(resolution.ggx_half_width(min(lobe.mx, lobe.my)))
             except (BakeError, ValueError):
                 pass  # refused by the bake, which says so
-            if settings.method == "runtime" or settings.anisotropy != 0.0:
+            if method == "runtime" or settings.anisotropy != 0.0:
                 continue
-        mode = settings.method if settings.method in ("3d", "2d") else "3d"
+        mode = method if method in ("3d", "2d") else "3d"
         try:
             fit = lobes.fit(settings.brdf_spec(), slices=max(2, settings.slices),
                             lobes=settings.lobes if mode == "3d" else 1, mode=mode)

@@ -124,3 +124,38 @@ def test_the_hybrid_beats_both_methods_on_environments_it_was_not_measured_on():
     assert pooled["hybrid"] < pooled["map"] and pooled["hybrid"] < pooled["regular"], pooled
     assert pooled["hybrid 127"] < min(pooled["map"], pooled["regular 127"]), pooled
     assert pooled["hybrid 127"] < pooled["hybrid 127 as 19"], pooled
+
+
+def test_a_principled_bsdf_without_a_coat_takes_the_hybrid_too():
+    """The Principled BSDF's glossy layers without a coat are one GGX lobe whose
+    Fresnel terms and multiscatter energy runtime sampling carries in its albedo
+    table only (bake.sampling.lobe_of). The Hybrid, weighted by the GGX table at
+    the lobe's roughness, is still below the 3D map and below regular sampling,
+    pooled over a dielectric and a coloured metal at roughness 0.3 and 0.5 on
+    the synthetic environments (19 samples, 32^2 sphere). Measured: 0.159 against
+    0.240 (map) and 0.177 (regular), a margin of 10% on the closer one.
+    On the bundled HDRIs (64 px probe) the dielectric at 0.3 measured 0.22
+    against the map's 0.51 in night.exr, 0.28 against 0.43 in studio.exr."""
+    normals, views, mask = reference.sphere_buffers(32)
+    normals, views = normals[mask], views[mask]
+    mu = np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0)
+    squares = {key: [] for key in ("map", "regular", "hybrid")}
+    for env in _environments():
+        for roughness in (0.3, 0.5):
+            for material in ("metallic=0", "metallic=1,base_color=0.9/0.6/0.3"):
+                spec = f"principled:roughness={roughness},{material},diffuse=0"
+                model = brdf.parse(spec)
+                truth = reference.render(model, env, "cube", normals, views) @ LUMINANCE
+                baked = prefilter.prefilter(env, spec, "3d", "auto").shade(normals, views) \
+                    @ LUMINANCE
+                atlas, meta = sampling_runtime.pack(env, spec, layout="cube", budget=19,
+                                                    height=64)
+                regular = sampling_runtime.shade(atlas, meta, normals, views) @ LUMINANCE
+                weight = hybrid.blend_weight(mu, roughness, samples=19)
+                for key, estimate in (("map", baked), ("regular", regular),
+                                      ("hybrid", (1.0 - weight) * baked + weight * regular)):
+                    squares[key].append(np.mean((estimate - truth) ** 2) / np.mean(truth ** 2))
+    pooled = {key: float(np.sqrt(np.mean(value))) for key, value in squares.items()}
+    assert pooled["hybrid"] < pooled["map"] and pooled["hybrid"] < pooled["regular"], pooled
+    with pytest.raises(BakeError, match="no sampler"):  # a coat is a second lobe
+        sampling_runtime.pack(_environments()[0], "principled:roughness=0.3,coat_weight=1")

@@ -115,7 +115,8 @@ def test_taps_along_each_footprint_cut_the_line_lobe_s_error():
         assert errors[1] < 0.8 * errors[0], (name, errors)
 
 
-@pytest.mark.parametrize("spec", [ISOTROPIC, ANISOTROPIC, "principled_metallic:roughness=0.4"])
+@pytest.mark.parametrize("spec", [ISOTROPIC, ANISOTROPIC, "principled_metallic:roughness=0.4",
+                                  "principled:roughness=0.4,metallic=0,diffuse=0"])
 def test_a_constant_environment_returns_the_albedo(spec):
     """Eq. 18: a constant environment L comes back as rho(wo) L; the table holds rho
     on a 32 x 9 grid, so its bilinear interpolation is the only error: measured
@@ -187,3 +188,23 @@ def test_bad_input_is_refused():
         sampling_runtime.pack(env, ISOTROPIC, budget=10000)
     with pytest.raises(BakeError, match="not a runtime"):
         sampling_runtime.shade(np.zeros((8, 8, 3)), {"mode": "atlas3d"}, np.eye(3), np.eye(3))
+
+
+def test_materials_of_one_probe_share_its_level_stack():
+    """The pre-blurred levels depend on the probe alone: a second material packed
+    from the same probe reuses them (bake.probe_maps.ProbeMaps.kept), and its
+    atlas holds the same levels as a first pack from a cold cache."""
+    from bake import probe_maps
+
+    env = sampling.spots_environment(16, seed=11)
+    probe_maps.clear_cache()
+    first, meta = sampling_runtime.pack(env, ISOTROPIC, height=32)
+    maps = probe_maps.probe_maps(env, "cube")
+    before = maps.computed["reused"]
+    second, _ = sampling_runtime.pack(env, ANISOTROPIC, height=32)
+    assert maps.computed["reused"] == before + 1
+    rows = int(meta["levels"]) * (int(meta["slice_height"]) + 2)
+    np.testing.assert_array_equal(first[:rows], second[:rows])
+    probe_maps.clear_cache()
+    again, _ = sampling_runtime.pack(env, ANISOTROPIC, height=32)
+    np.testing.assert_array_equal(again, second)

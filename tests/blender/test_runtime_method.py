@@ -51,3 +51,58 @@ def test_bad_input_is_refused_or_falls_back_with_a_note(brushed):
     assert no_uv["bake"] == no_uv["attach"] == ["FINISHED"]
     assert no_uv["tangents"] == [["RADIAL", "Z"]]
     assert "no UV map 'UVMap'" in no_uv["note"] and "radial about Z" in no_uv["note"]
+
+
+def test_auto_chooses_the_hybrid_only_for_an_isotropic_ggx_lobe(brushed):
+    """glossy_addon.method_choice's rule, on each kind of BRDF: the Hybrid for an
+    isotropic GGX lobe (a GGX BSDF, the default Principled BSDF), Runtime
+    Sampling for an anisotropic one, the 3D map for lobes the nodes cannot
+    sample (Beckmann, Ward, a Principled BSDF with a coat), for a roughness
+    texture and for a fixed map size too small for the runtime texture; a
+    method set by hand is kept, with no reason shown."""
+    choices = brushed["choices"]
+    assert choices["ggx"][0] == choices["principled"][0] == "hybrid"
+    assert choices["ggx_anisotropic"][0] == "runtime"
+    for label in ("beckmann", "ward", "principled_coat", "textured", "ggx_fixed_8"):
+        assert choices[label][0] == "3d", (label, choices[label])
+        assert choices[label][1].startswith("3D Map: "), choices[label]
+    assert "roughness texture" in choices["textured"][1]
+    assert "beckmann" in choices["beckmann"][1]
+    for label in ("ggx", "ggx_anisotropic", "beckmann", "principled"):
+        assert choices[f"{label}_set"] == ["3d", ""]
+
+
+@pytest.fixture(scope="module")
+def auto_and_map(tmp_path_factory, hdri_dir):
+    """One isolated sphere of GGX 0.3 in night.exr (small bright lamps, where the 3D
+    map's grazing floor shows), through the camera that makes it fill the frame:
+    once on the default method (Auto), once on the 3D map; each captured, baked,
+    attached and validated at 64 px (Cycles 2 x 64 spp, EEVEE 4 samples), so
+    both are measured on the same pixels against the same Cycles render."""
+    results = {}
+    for method in ("auto", "3d"):
+        work = tmp_path_factory.mktemp(f"auto_method_{method}")
+        results[method] = run_script(
+            "runtime_validate.py", hdri_dir / "night.exr", work, 64, 64, 4,
+            f'[["S", "{method}", 0.3, 0.0, 0.0]]', 0, 1, work / "result.json",
+            timeout=900)["S"]
+    return results
+
+
+def test_the_default_method_bakes_the_hybrid_and_beats_the_3d_map(auto_and_map):
+    """The default method of a GGX material is Auto, which bakes the Hybrid (its 3D
+    map and runtime texture), and against Cycles it is below the 3D map alone.
+    Measured at 128 px, Cycles 2 x 256 spp (README): 22.6% against 34.1%; here
+    (64 px, 2 x 64 spp) 30.0% against 37.9%, with Cycles' noise at 9.6% in both
+    (the same render). The bound asks for a tenth less than the 3D map's error:
+    the measured gap is twice that, and every render involved is deterministic
+    (fixed seeds), so only platform rounding moves it."""
+    auto, plain = auto_and_map["auto"], auto_and_map["3d"]
+    for entry in (auto, plain):
+        assert entry["capture"] == entry["bake"] == entry["attach"] == ["FINISHED"], entry
+    assert auto["method_used"] == "hybrid" and plain["method_used"] == "3d"
+    assert auto["bake_path"].endswith("_hybrid.exr")
+    assert auto["runtime_path"].endswith("_hybrid_runtime.exr")
+    errors = {name: entry["figures"]["methods"]["eevee_glossy"]["relative_rms"]
+              for name, entry in auto_and_map.items()}
+    assert errors["auto"] < 0.9 * errors["3d"], errors

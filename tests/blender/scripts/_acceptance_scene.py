@@ -41,6 +41,7 @@ def build(scenes_module, hdri, probe_resolution=32):
         material.glossy.roughness = roughness
         material.glossy.map_size = 32
         material.glossy.slices = 8
+        material.glossy.method = "3d"  # the 3D map's lookup is what these views check
         obj.data.materials.append(material)
         obj.glossy.probe_resolution = probe_resolution
         obj.glossy.capture_samples = 8

@@ -24,7 +24,7 @@ sphere = bpy.context.object
 report = {"poll_no_material": bpy.ops.glossy.bake_materials.poll()}
 material = bpy.data.materials.new("Shiny")
 sphere.data.materials.append(material)
-material.glossy.model = "ggx"
+material.glossy.model, material.glossy.method = "ggx", "3d"  # the 3D map's lookup nodes
 material.glossy.roughness = 0.3
 material.glossy.slices = 3
 material.glossy.map_size = 8

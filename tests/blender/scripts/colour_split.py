@@ -121,6 +121,7 @@ for name, input_name, chained, coat in CASES:
     else:
         bsdf.inputs[input_name].default_value = (*value, 1.0)
     material.glossy.model = "MATERIAL"
+    material.glossy.method = "3d"  # the 3D map's splits, chained and typed in alike
     material.glossy.slices = 8
     obj.data.materials.append(material)
     world_probe(obj, 64)

@@ -75,6 +75,7 @@ def scenario():
         material.glossy.roughness = roughness
         material.glossy.map_size = 64
         material.glossy.slices = 16
+        material.glossy.method = "3d"  # the 3D map's parts: the same files in Blender 4.x
         material.glossy.lamps = False  # the environment bake's Esc (the startup scene has a lamp)
         cube.data.materials.append(material)
     materials = list(cube.data.materials)
@@ -97,7 +98,7 @@ def scenario():
     # 4b. Esc inside one material's bake (between two parts, a pair of slices each):
     # the bake stops there and writes nothing, though it would need seconds more.
     big = bpy.data.materials.new("Big")
-    big.glossy.model = "ggx"
+    big.glossy.model, big.glossy.method = "ggx", "3d"
     big.glossy.roughness = 0.1
     big.glossy.size_mode = "FIXED"
     big.glossy.map_size = 256

@@ -63,7 +63,7 @@ def scenario():
     cube.glossy.probe_size_mode = "FIXED"
     cube.glossy.probe_resolution = 16
     material = cube.material_slots[0].material
-    material.glossy.model = "ggx"
+    material.glossy.model, material.glossy.method = "ggx", "3d"  # the same in Blender 4.x
     material.glossy.slices = 3
     material.glossy.size_mode = "FIXED"
     material.glossy.map_size = 8
@@ -101,7 +101,7 @@ def scenario():
     # Esc during a bake whose every part takes seconds (1024 rows, GGX 0.1): the
     # operator ends within a second, writes nothing, and Blender keeps working.
     big = bpy.data.materials.new("Big")
-    big.glossy.model = "ggx"
+    big.glossy.model, big.glossy.method = "ggx", "3d"
     big.glossy.roughness = 0.1
     big.glossy.size_mode = "FIXED"
     big.glossy.map_size = 1024

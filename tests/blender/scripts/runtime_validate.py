@@ -7,8 +7,10 @@ As a user's script: isolated spheres (ray visibility off, so none sees
 another), each with its own material and World Only probe (64 px faces),
 baked, attached and validated together (no scene camera: validation frames
 them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
-rotation(, samples)]; the default is one brushed sphere (GGX 0.3, anisotropy 0.8,
-Runtime Sampling, tangent radial about Z). Writes the validation report's
+rotation(, samples(, {Principled BSDF input: value}))]: with the last, the
+material is From Material, a Principled BSDF with those inputs; the default
+is one brushed sphere (GGX 0.3, anisotropy 0.8, Runtime Sampling, tangent
+radial about Z). Writes the validation report's
 figures per sphere, the operators' reports and the attached node count.
 With CHECKS=1 it first tries bad input on a sphere of its own, removed after:
 a Beckmann lobe with Runtime Sampling (refused: no GGX sampler) and a UV-map
@@ -79,8 +81,41 @@ if checks:
                        "note": bad.glossy.tangent_note}
     bpy.data.objects.remove(probe_obj)
     bpy.data.materials.remove(bad)
+    # What Auto chooses (glossy_addon.method_choice) for BRDFs of each kind.
+    from glossy.glossy_addon.method_choice import choose
+
+    result["choices"] = {}
+    for label, model, anisotropy in (("ggx", "ggx", 0.0), ("ggx_anisotropic", "ggx", 0.8),
+                                     ("beckmann", "beckmann", 0.0), ("ward", "ward", 0.0),
+                                     ("principled", "MATERIAL", 0.0),
+                                     ("principled_coat", "MATERIAL", 0.0),
+                                     ("textured", "MATERIAL", 0.0)):
+        probe = bpy.data.materials.new(f"choice_{label}")
+        probe.glossy.model, probe.glossy.anisotropy = model, anisotropy
+        if probe.node_tree is None:  # Blender before 5.0
+            probe.use_nodes = True
+        tree = probe.node_tree
+        if label == "principled_coat":  # a second GGX lobe
+            tree.nodes["Principled BSDF"].inputs["Coat Weight"].default_value = 1.0
+        if label == "textured":  # a roughness texture: maps baked at its knots
+            picture = bpy.data.images.new("choice_roughness", 4, 4, alpha=False)
+            picture.colorspace_settings.name = "Non-Color"
+            picture.pixels = [v for k in range(16) for v in (0.2 + 0.025 * k,) * 3 + (1.0,)]
+            texture = tree.nodes.new("ShaderNodeTexImage")
+            texture.image = picture
+            tree.links.new(texture.outputs["Color"],
+                           tree.nodes["Principled BSDF"].inputs["Roughness"])
+        result["choices"][label] = list(choose(probe.glossy))
+        probe.glossy.method = "3d"
+        result["choices"][f"{label}_set"] = list(choose(probe.glossy))
+        bpy.data.materials.remove(probe)
+    tiny = bpy.data.materials.new("choice_tiny")
+    tiny.glossy.model, tiny.glossy.size_mode, tiny.glossy.map_size = "ggx", "FIXED", 8
+    result["choices"]["ggx_fixed_8"] = list(choose(tiny.glossy))
+    bpy.data.materials.remove(tiny)
 objects = []
-for index, (name, method, roughness, anisotropy, rotation, *budget) in enumerate(spheres):
+for index, (name, method, roughness, anisotropy, rotation, *extra) in enumerate(spheres):
+    budget, principled = extra[:1], (extra[1] if len(extra) > 1 else None)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
                                          location=(2.5 * index, 0.0, 0.0))
     bpy.ops.object.shade_smooth()
@@ -97,6 +132,17 @@ for index, (name, method, roughness, anisotropy, rotation, *budget) in enumerate
     settings = material.glossy
     settings.model, settings.method = "ggx", method
     settings.roughness, settings.anisotropy, settings.rotation = roughness, anisotropy, rotation
+    if principled is not None:  # From Material: a Principled BSDF with these inputs
+        settings.model = "MATERIAL"
+        if material.node_tree is None:  # Blender before 5.0
+            material.use_nodes = True
+        bsdf = material.node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Roughness"].default_value = roughness
+        for socket, value in principled.items():
+            if isinstance(value, (int, float)) and \
+                    hasattr(bsdf.inputs[socket].default_value, "__len__"):
+                value = (value, value, value, 1.0)  # a grey colour
+            bsdf.inputs[socket].default_value = value
     if budget:
         settings.samples = int(budget[0])
     obj.data.materials.append(material)
@@ -106,6 +152,7 @@ for index, (name, method, roughness, anisotropy, rotation, *budget) in enumerate
                     "attach": run(bpy.ops.glossy.attach_materials),
                     "nodes": len(material.node_tree.nodes),
                     "bake_path": settings.bake_path, "runtime_path": settings.runtime_path,
+                    "method_used": settings.method_used(),
                     "size_reason": settings.size_reason,
                     "probe_reason": obj.glossy.probe_reason}
 if camera:

@@ -1,0 +1,100 @@
+"""The method a material's "Auto" method bakes with, and why (issue 11: the
+Hybrid is the default wherever it is better).
+
+Measured in EEVEE against Cycles on an isolated sphere in every bundled HDRI
+(benchmarks/runtime_validate.py, 19 samples, 64 px World Only probe; README,
+"Runtime sampling"): for isotropic GGX the Hybrid is below the 3D map on all
+eight HDRIs at roughness 0.3 (2.7-22.6% against 3.7-34.1%) and 0.6 (7.0-18.8%
+against 11.1-26.8%), and equal to it within a point at 0.1, where the probe's
+resolution limits both and the Hybrid's weights (bake.hybrid, measured per
+view elevation and roughness) leave the map almost alone. Its EEVEE frame is
+1.2x native's and its shader compiles in a second or two.
+
+The Hybrid's runtime part samples one GGX lobe and scales it by the
+material's colour at its bake-time value. So Auto keeps the 3D map where
+that is not the whole story:
+
+- a BRDF with no single GGX lobe (Beckmann, Ward, Phong, the Kurt model, a
+  Principled BSDF with a coat, a custom sum): runtime sampling in shader
+  nodes samples GGX's visible normals only (bake.sampling.lobe_of; a
+  Principled BSDF without a coat is one GGX lobe, and in NumPy its Hybrid
+  measured below the 3D map as GGX's does: tests/bake/test_hybrid.py);
+- a From Material tree whose roughness texture or colour, metallic or coat
+  tint texture the 3D map follows per pixel through maps baked at knots
+  (glossy_addon.spatial.map_variants), where the runtime part would take one
+  value for the whole surface.
+
+An anisotropic GGX lobe gets Runtime Sampling (the 3D map needs an isotropic
+lobe). Everything else with an isotropic GGX lobe gets the Hybrid, in a
+Blender whose shader nodes have repeat zones (5.0) and at a map size that
+holds runtime sampling's texture.
+"""
+
+import bpy
+
+from ..bake import brdf
+from ..bake.errors import BakeError
+from ..bake.sampling import lobe_of
+
+#: Blender version whose shader nodes have repeat zones (glossy_addon.sampling_nodes).
+SHADER_LOOPS = (5, 0, 0)
+#: Models of the Material panel with no GGX lobe.
+NOT_GGX = ("beckmann", "ashikhmin_shirley", "ward", "phong", "lambert", "BUMP")
+#: Smallest level stack (rows) that holds the albedo table (bake.sampling_runtime).
+MIN_RUNTIME_ROWS = 16
+
+
+def choose(settings) -> tuple:
+    """(method, reason) for ``settings`` (a Material's ``glossy``): its own method
+    and '' unless it is "auto"; for Auto, the rule of the module doc and one
+    line saying why. A BRDF that cannot be read gives the 3D map, whose bake
+    then reports the error."""
+    if settings.method != "auto":
+        return settings.method, ""
+    if settings.model in NOT_GGX:  # decided without parsing (a bump BRDF computes a table)
+        return "3d", (f"3D Map: {settings.model} has no GGX lobe (runtime sampling in "
+                      f"shader nodes samples GGX)")
+    try:
+        spec = settings.brdf_spec()
+        if spec.startswith("bump:"):
+            return "3d", "3D Map: a bump-map BRDF has no GGX lobe"
+        model = brdf.parse(spec)
+    except (BakeError, ValueError):
+        return "3d", "3D Map: the BRDF could not be read"
+    try:
+        lobe = lobe_of(model)
+    except BakeError:
+        return "3d", "3D Map: the BRDF has no single lobe to sample at runtime"
+    if lobe.kind != "ggx":
+        return "3d", (f"3D Map: the BRDF's {lobe.kind} lobe (runtime sampling in shader nodes "
+                      f"samples GGX)")
+    if bpy.app.version < SHADER_LOOPS:
+        return "3d", (f"3D Map: runtime sampling's shader loop needs Blender "
+                      f"{'.'.join(map(str, SHADER_LOOPS))} or newer")
+    if lobe.anisotropic:
+        return "runtime", "Runtime Sampling: an anisotropic lobe (the 3D map needs an " \
+                          "isotropic one)"
+    if settings.size_mode == "FIXED" and settings.map_size < MIN_RUNTIME_ROWS:
+        return "3d", (f"3D Map: a fixed map size below {MIN_RUNTIME_ROWS} is too small for "
+                      f"runtime sampling's texture")
+    texture = _per_pixel_texture(settings)
+    if texture:
+        return "3d", (f"3D Map: the {texture} texture is followed per pixel by maps baked "
+                      f"at its knots (the Hybrid's runtime part would take one value)")
+    return "hybrid", "Hybrid: an isotropic GGX lobe, where it measured below the 3D map"
+
+
+def _per_pixel_texture(settings) -> str:
+    """'roughness' or 'colour' if a From Material tree has a texture that the 3D
+    map follows through maps baked at knots; '' otherwise."""
+    if settings.model != "MATERIAL":
+        return ""
+    from .material_source import parts
+    from .spatial import map_variants
+
+    found = parts(settings.id_data)
+    if found.roughness_set:
+        return "roughness"
+    if any(key is not None for _, key, _ in map_variants(found, colour=True)):
+        return "colour"
+    return ""
