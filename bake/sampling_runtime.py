@@ -289,7 +289,13 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     1.2-2.1x on every bundled HDRI; on isotropic GGX 0.3 it helps at 19 samples
     where lights are small (night 0.29 -> 0.20, studio 0.17 -> 0.12; sunset and
     interior up to 9% worse) and costs up to 1.4x at 127 samples, where the
-    footprints are small and nearly round."""
+    footprints are small and nearly round. Not settled: for the stretched
+    pattern :func:`_footprints` takes each cell as square and turns its
+    finite-difference steps by the pattern's turn once more than the samples
+    (the figures above were measured so); turning them once only measured
+    worse (14 samples, 128 px probe, 4 lookups: night 0.145 -> 0.270), and
+    with 52 or more samples the taps cost more than they gain, so the
+    footprint model is not yet one to carry into the nodes."""
     from .reference import _frames, pixel_arrays
 
     if meta.get("mode") != MODE:
