@@ -16,7 +16,12 @@ Then the hybrid against both methods alone, per budget, HDRI and roughness,
 with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
-    .venv/bin/python benchmarks/hybrid.py [--write]
+    .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights]
+
+By default both methods see the probe without its small bright lights, which
+are shaded exactly (bake.probe_lights, Probe Lights on: the bake's default);
+``--no-lights`` measures them on the whole probe (the table before Probe
+Lights).
 """
 
 import argparse
@@ -30,7 +35,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bake import brdf, exr, hybrid, prefilter, reference, sampling_runtime  # noqa: E402
+from bake import (  # noqa: E402
+    brdf,
+    exr,
+    hybrid,
+    prefilter,
+    probe_lights,
+    reference,
+    sampling_runtime,
+)
 from bake.envmap import convert  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -49,17 +62,23 @@ def hdri_directory():
         "studiolights" / "world"
 
 
-def runtime_twin(cube, spec, budget, normals, views):
+def runtime_twin(cube, spec, budget, normals, views, lights=()):
     """(N, 3) the Runtime Sampling nodes' radiance (bake.sampling_runtime.shade, their
     NumPy twin) with the level stack glossy.bake_materials makes for this probe
-    (twice the face's rows, a power of two): the estimate the Hybrid blends."""
+    (twice the face's rows, a power of two): the estimate the Hybrid blends;
+    with ``lights`` (``cube`` then the residual), their exact term is included."""
     rows = 1 << int(np.floor(np.log2(2 * cube.shape[0])))
-    atlas, meta = sampling_runtime.pack(cube, spec, layout="cube", budget=budget, height=rows)
+    atlas, meta = sampling_runtime.pack(cube, spec, layout="cube", budget=budget, height=rows,
+                                        lights=lights)
     return sampling_runtime.shade(atlas, meta, normals, views)
 
 
-def renders(name, directory, size=64, face=64):
-    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel."""
+def renders(name, directory, size=64, face=64, with_lights=False):
+    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel.
+    ``with_lights``: as the bake does with Probe Lights on (bake.probe_lights): both
+    methods see the residual probe and each estimate includes the lights' exact
+    term (added outside the blend, as the nodes add it); the truth is the whole
+    probe's."""
     image, _ = exr.read(directory / f"{name}.exr")
     cube = convert(image[..., :3], "latlong", "cube", face)
     normals, views, mask = reference.sphere_buffers(size)
@@ -70,9 +89,16 @@ def renders(name, directory, size=64, face=64):
         spec = f"ggx:roughness={roughness}"
         model = brdf.parse(spec)
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
-        baked = prefilter.prefilter(cube, spec, "3d", "auto").shade(normals, views) @ LUMINANCE
-        regular = {budget: runtime_twin(cube, spec, budget, normals, views) @ LUMINANCE
-                   for budget in BUDGETS}
+        probe, lights, light_term = cube, (), 0.0
+        if with_lights:
+            probe, lights = probe_lights.extract(
+                cube, max_spread=probe_lights.max_spread_for(roughness ** 2))
+            light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, lights) \
+                - runtime_twin(probe, spec, BUDGETS[0], normals, views)
+        baked = (prefilter.prefilter(probe, spec, "3d", "auto").shade(normals, views)
+                 + light_term) @ LUMINANCE
+        regular = {budget: runtime_twin(probe, spec, budget, normals, views, lights)
+                   @ LUMINANCE for budget in BUDGETS}
         out[roughness] = (mu, truth, baked, regular)
     return out
 
@@ -128,15 +154,20 @@ def main():
                         help="store the pooled table as bake/hybrid_errors.json")
     parser.add_argument("--face", type=int, default=64,
                         help="probe face size (the committed table: 64)")
+    parser.add_argument("--no-lights", action="store_true",
+                        help="the whole probe in both methods (Probe Lights off); the "
+                             "default takes the probe's lights out as the bake does")
     args = parser.parse_args()
     directory = hdri_directory()
     names = sorted(p.stem for p in directory.glob("*.exr"))
     results = {}
     for name in names:
         start = time.perf_counter()
-        results[name] = renders(name, directory, face=args.face)
+        results[name] = renders(name, directory, face=args.face,
+                                with_lights=not args.no_lights)
         print(f"measured {name} ({time.perf_counter() - start:.0f} s)", flush=True)
     table = table_from(results, names, args.face)
+    table.meta["probe_lights"] = not args.no_lights
     print("\npooled relative RMS per mu bin, map / regular, and the weight w of regular:")
     for s, budget in enumerate(BUDGETS):
         print(f"{budget} samples")

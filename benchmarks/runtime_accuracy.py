@@ -10,11 +10,13 @@ probe (so the probe's resolution is not part of this error: it is the
 estimator's). Separates what more samples buy from what a finer probe buys.
 With ``--taps 4`` (or a list, 1,4,8) each budget is also shaded with up to
 that many lookups along each sample's footprint (sampling_runtime.shade's
-``taps``, not yet in the nodes).
+``taps``, not yet in the nodes). With ``--lights`` each budget is also shaded
+with the probe's small bright lights taken out and shaded exactly
+(bake.probe_lights, as the bake does with Probe Lights on): column "+L".
 
     .venv/bin/python benchmarks/runtime_accuracy.py [--spec ggx:roughness=0.3]
         [--budgets 19,61,127,252] [--face 64] [--size 48] [--hdri night ...]
-        [--taps 1,4]
+        [--taps 1,4] [--lights]
 """
 
 import argparse
@@ -27,7 +29,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bake import brdf, envmap, exr, reference, sampling_runtime  # noqa: E402
+from bake import brdf, envmap, exr, probe_lights, reference, sampling_runtime  # noqa: E402
+from bake.sampling import lobe_of  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -41,6 +44,8 @@ def main():
     parser.add_argument("--size", type=int, default=48, help="sphere image size (px)")
     parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
     parser.add_argument("--taps", default="1", help="lookups per sample footprint, e.g. 1,4")
+    parser.add_argument("--lights", action="store_true",
+                        help="also with the probe's lights shaded exactly (bake.probe_lights)")
     args = parser.parse_args()
     taps = [int(t) for t in args.taps.split(",")]
     model = brdf.parse(args.spec)
@@ -58,7 +63,7 @@ def main():
         start = time.perf_counter()
         truth = reference.render(model, probe, "cube", normals, views,
                                  tangents=tangents) @ LUMINANCE
-        errors, counts = [], []
+        errors, counts, taken = [], [], None
         for budget in budgets:
             atlas, meta = sampling_runtime.pack(probe, args.spec, budget=budget,
                                                 height=2 * args.face)
@@ -69,11 +74,24 @@ def main():
                                             / np.mean(truth ** 2))))
                 counts.append(f"{len(meta['prob'])}x{tap}" if len(taps) > 1 else
                               f"{len(meta['prob'])} smp")
+            if args.lights:
+                lobe = lobe_of(model)
+                residual, lights = probe_lights.extract(
+                    probe, max_spread=probe_lights.max_spread_for(min(lobe.mx, lobe.my)))
+                split, split_meta = sampling_runtime.pack(residual, args.spec, budget=budget,
+                                                          height=2 * args.face, lights=lights)
+                estimate = sampling_runtime.shade(split, split_meta, normals, views,
+                                                  tangents) @ LUMINANCE
+                errors.append(float(np.sqrt(np.mean((estimate - truth) ** 2)
+                                            / np.mean(truth ** 2))))
+                counts.append(f"{len(meta['prob'])}+L")
+                taken = len(lights)
         if header is None:
             header = f"{'HDRI':10s} " + " ".join(f"{c:>8s}" for c in counts)
             print(header, flush=True)
         print(f"{name:10s} " + " ".join(f"{e:8.3f}" for e in errors)
-              + f"   ({time.perf_counter() - start:.0f} s)", flush=True)
+              + f"   ({time.perf_counter() - start:.0f} s"
+              + (f", {taken} light(s) taken" if taken is not None else "") + ")", flush=True)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,8 @@ same pixels.
 
     .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
         [--eevee 4] [--probe 64|auto] [--hdri sunset ...]
-        [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples)
+        [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples;
+                                        hybrid-nolights: Probe Lights off)
         [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
 """
 

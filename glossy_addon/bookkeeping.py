@@ -33,6 +33,7 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "probe": probe_key}
     if method in ("runtime", "hybrid"):
         key["samples"] = material_settings.samples
+        key["probe_lights"] = material_settings.probe_lights
     if material_settings.model == "MATERIAL" and not spec.startswith("unreadable"):
         from .material_source import parts  # the read spec, weights and images
 

@@ -31,7 +31,7 @@ class _Builder:
         return node
 
     def link(self, socket, target):
-        if isinstance(socket, (int, float)):
+        if isinstance(socket, (int, float, tuple)):
             target.default_value = socket
         else:
             self.links.new(socket, target)
@@ -266,14 +266,16 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     else:
         value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
-        from .sampling_nodes import hybrid_value, runtime_value, tangent_socket
+        from .sampling_nodes import hybrid_value, runtime_parts, tangent_socket
 
         geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
-        sampled = runtime_value(b, *runtime, geometry.outputs["Normal"],
-                                geometry.outputs["Incoming"], tangent_socket(b, tangent))
+        sampled, lights = runtime_parts(b, *runtime, geometry.outputs["Normal"],
+                                        geometry.outputs["Incoming"], tangent_socket(b, tangent))
         value = sampled if value is None else hybrid_value(
             b, runtime[1], geometry.outputs["Normal"], geometry.outputs["Incoming"], value,
             sampled)
+        if lights is not None:  # the probe's lights, outside the blend (both parts lack them)
+            value = _add(b, value, lights)
     lamp_diffuse = None
     if lamps:
         from .lamps import lamp_terms

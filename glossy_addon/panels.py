@@ -239,6 +239,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
             column.prop(settings, "lobes")
         if method in ("runtime", "hybrid"):
             column.prop(settings, "samples")
+            column.prop(settings, "probe_lights")
         column.prop(settings, "size_mode")
         column.prop(settings, "map_size",
                     text="Max Map Size" if settings.size_mode == "AUTO" else "Map Size")

@@ -202,6 +202,11 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Samples", description="Runtime samples per pixel (the regular pattern with the "
         "closest count). The nodes loop over them: more samples cost shading time per "
         "pixel, not shader compile time", default=19, min=1, max=444, soft_max=200)
+    probe_lights: bpy.props.BoolProperty(
+        name="Probe Lights", description="Runtime Sampling and Hybrid: take the probe's small "
+        "bright lights (a sun, lamps a few texels wide) out of it and shade them exactly as "
+        "directional lights (bake.probe_lights); sampling and the map then see the rest",
+        default=True)
     runtime_path: bpy.props.StringProperty(
         name="Baked Sampling Levels", description="The runtime-sampling texture of a Hybrid "
         "bake", subtype="FILE_PATH")

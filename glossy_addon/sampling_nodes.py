@@ -159,6 +159,74 @@ def sample_group(ax, ay):
     return tree
 
 
+LIGHT_GROUP = f"Glossy Probe Light v{GROUP_VERSION}"
+
+
+def light_group(ax, ay):
+    """Per-material group: one probe light's radiance before the scale rho / A_ss
+    (bake.sampling_runtime.light_radiance): inputs the lobe frame X, Y, N (world),
+    Wo and the view's Lambda (from :func:`frame_group`), the light's world
+    Direction and Irradiance (RGB as a vector) and the widened alphas BX, BY;
+    output Radiance = D_B(h) / (4 wo_z (1 + Lambda_o + Lambda(l))) E, zero where
+    the light is below the surface."""
+    name = f"{LIGHT_GROUP} {ax:.6g} {ay:.6g}"
+    tree = _group(name, [(s, _VECTOR) for s in ("X", "Y", "N", "Wo", "Direction",
+                                                  "Irradiance")]
+                  + [(s, _FLOAT) for s in ("Lambda", "BX", "BY")], [("Radiance", _VECTOR)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, outputs = _io(tree)
+    d = i["Direction"]
+    wi = b.combine(b.vec("DOT_PRODUCT", d, i["X"]), b.vec("DOT_PRODUCT", d, i["Y"]),
+                   b.vec("DOT_PRODUCT", d, i["N"]))
+    wo = i["Wo"]
+    h = b.vec("NORMALIZE", b.vec("ADD", wi, wo))
+    _, _, wiz = b.separate(wi)
+    valid = b.math("MULTIPLY", b.math("GREATER_THAN", wiz, 0.0),
+                   b.math("GREATER_THAN", b.vec("DOT_PRODUCT", wo, h), 0.0))
+    hx, hy, hz = b.separate(h)
+    bx2 = b.math("MULTIPLY", i["BX"], i["BX"])
+    by2 = b.math("MULTIPLY", i["BY"], i["BY"])
+    t = b.math("ADD", b.math("ADD", b.math("DIVIDE", b.math("MULTIPLY", hx, hx), bx2),
+                             b.math("DIVIDE", b.math("MULTIPLY", hy, hy), by2)),
+               b.math("MULTIPLY", hz, hz))
+    # D_B = 1 / (pi bx by t^2); the value's denominator 4 wo_z (1 + L_o + L_i) pi bx by t^2
+    _, _, woz = b.separate(wo)
+    denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
+        "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", t, t)), 4.0 * math.pi),
+        b.math("MULTIPLY", woz, b.math("ADD", b.math("ADD", i["Lambda"], 1.0),
+                                       _lambda(b, wi, ax, ay))))
+    value = b.math("DIVIDE", valid, b.math("MAXIMUM", denominator, 1e-30))
+    b.link(b.vec("SCALE", i["Irradiance"], scale=value), outputs["Radiance"])
+    return tree
+
+
+def _light_widening():
+    from ..bake.sampling_runtime import LIGHT_WIDENING
+
+    return LIGHT_WIDENING
+
+
+def _lights_value(b, image, meta, frame):
+    """The probe lights' radiance (colour socket), or None without lights."""
+    lights = meta.get("lights") or []
+    if not lights:
+        return None
+    ax, ay = float(meta["ax"]), float(meta["ay"])
+    widening = _light_widening()
+    total = None
+    for light in lights:
+        widen = (widening * float(light.get("spread", 0.0))) ** 2
+        node = _group_node(b, light_group(ax, ay), {
+            "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
+            "Lambda": frame["Lambda"], "Direction": tuple(float(x) for x in light["direction"]),
+            "Irradiance": tuple(float(x) for x in light["irradiance"]),
+            "BX": math.sqrt(ax * ax + widen), "BY": math.sqrt(ay * ay + widen)})
+        total = node["Radiance"] if total is None else b.vec("ADD", total, node["Radiance"])
+    return b.vec("MULTIPLY", total, _albedo(b, image, meta, frame["Wo"], table=1))
+
+
 def _repeat_zone(b, iterations, items):
     """A repeat zone (Blender's repeat zone in shader nodes; EEVEE compiles it as a
     loop, so the shader's size does not grow with ``iterations``). items: list of
@@ -193,7 +261,16 @@ def _sample_data(b, image, meta, index):
 
 
 def runtime_value(b, image, meta, normal, view, tangent):
-    """The runtime-sampling radiance (colour socket) of a bake.sampling_runtime atlas.
+    """The runtime-sampling radiance (colour socket) of a bake.sampling_runtime atlas,
+    the probe's lights included (:func:`runtime_parts`)."""
+    sampled, lights = runtime_parts(b, image, meta, normal, view, tangent)
+    return sampled if lights is None else b.vec("ADD", sampled, lights)
+
+
+def runtime_parts(b, image, meta, normal, view, tangent):
+    """(sampled, lights) colour sockets of a bake.sampling_runtime atlas: the
+    estimate of the (residual) probe, and the probe lights' exact term (None
+    without lights).
 
     Two repeat zones over the samples (their constants read from the atlas): the
     first finds the strongest weight, the second sums the kept weights and their
@@ -247,15 +324,17 @@ def runtime_value(b, image, meta, normal, view, tangent):
     b.link(b.vec("ADD", state["Sum"], b.vec("SCALE", radiance, scale=kept)), result["Sum"])
     mean = b.vec("SCALE", after["Sum"], scale=b.math("DIVIDE", 1.0, b.math(
         "MAXIMUM", after["Total"], 1e-30)))
-    return b.vec("MULTIPLY", mean, _albedo(b, image, meta, frame["Wo"]))
+    return (b.vec("MULTIPLY", mean, _albedo(b, image, meta, frame["Wo"])),
+            _lights_value(b, image, meta, frame))
 
 
-def _albedo(b, image, meta, wo):
-    """rho(wo) from the table slice: four Closest taps, bilinear weights."""
+def _albedo(b, image, meta, wo, table=0):
+    """rho(wo) from the table slice (``table`` 1: the lights' scale rho / A_ss, the
+    rows after rho's): four Closest taps, bilinear weights."""
     count_mu, count_phi = int(meta["albedo_mu"]), int(meta["albedo_phi"])
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
     rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
-    base = int(meta["levels"]) * (height + 2) + 1
+    base = int(meta["levels"]) * (height + 2) + 1 + table * count_phi
     min_cos = float(meta["min_cos"])
     wx, wy, wz = b.separate(wo)
     x = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math(

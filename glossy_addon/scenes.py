@@ -44,6 +44,11 @@ def float_exr_output(scene, width, height=None):
     scene.view_settings.view_transform = "Standard"
 
 
+#: Pixel filter width (px) of the reference renders: pixel-centre rays (Cycles) and
+#: EEVEE's film filter in validation (glossy_addon.validation.configure_eevee).
+PIXEL_FILTER = 0.01
+
+
 def exact_cycles(scene, samples):
     """Cycles as a reference renderer (shared/docs/CYCLES.md): CPU, no denoiser,
     Filter Glossy 0, a 0.01 px Blackman-Harris filter (pixel-centre rays), no
@@ -55,7 +60,7 @@ def exact_cycles(scene, samples):
     cycles.use_denoising = False
     cycles.blur_glossy = 0.0
     cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-    cycles.filter_width = 0.01
+    cycles.filter_width = PIXEL_FILTER
     cycles.sample_clamp_direct = 0.0
     cycles.sample_clamp_indirect = 0.0
     cycles.use_adaptive_sampling = False

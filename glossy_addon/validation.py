@@ -16,7 +16,7 @@ from mathutils import Vector
 
 from ..bake import brdf, exr
 from ..bake.errors import BakeError
-from .scenes import exact_cycles, render_engine
+from .scenes import PIXEL_FILTER, exact_cycles, render_engine
 
 #: bake.brdf models Cycles' Glossy BSDF renders exactly (CYCLES.md), by distribution.
 CYCLES_DISTRIBUTIONS = {"ggx": "GGX", "beckmann": "BECKMANN",
@@ -356,6 +356,10 @@ def configure_eevee(changes, scene, samples, careful):
     extraction off and no indirect clamp, the strongest native EEVEE."""
     changes.set(scene.render, "engine", render_engine("BLENDER_EEVEE"))
     changes.set(scene.eevee, "taa_render_samples", samples)
+    # Pixel centres, as the Cycles truth is rendered (exact_cycles: a 0.01 px
+    # filter): EEVEE's own 1.5 px film filter would blur a sharp highlight
+    # across its neighbours and count the blur as shading error.
+    changes.set(scene.render, "filter_size", PIXEL_FILTER)
     if careful:
         if hasattr(scene.eevee, "clamp_surface_indirect"):
             changes.set(scene.eevee, "clamp_surface_indirect", 0.0)

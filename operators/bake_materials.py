@@ -6,7 +6,17 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import atlas, brdf, exr, hybrid, outputs, prefilter, sampling_runtime, separable
+from ..bake import (
+    atlas,
+    brdf,
+    exr,
+    hybrid,
+    outputs,
+    prefilter,
+    probe_lights,
+    sampling_runtime,
+    separable,
+)
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled, scaled_steps
 from ..glossy_addon import ownership
@@ -140,19 +150,23 @@ def runtime_height(settings, probe, layout) -> tuple:
     return rows, why
 
 
-def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid):
+def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=()):
     """The runtime-sampling texture (bake.sampling_runtime.pack) of ``rows``
     lat-long rows as steps (no bpy: runs on a worker thread): one message, then
     ((image, meta), reason); a Hybrid's meta carries its w(mu) knots
-    (bake.hybrid.weight_curve at the lobe's roughness and the pattern's sample count)."""
+    (bake.hybrid.weight_curve at the lobe's roughness and the pattern's sample count).
+    ``lights``: the probe's lights (bake.probe_lights) when ``probe`` is the residual."""
     yield 0.0, f"pre-blurring {rows}-row probe levels and the albedo table for runtime sampling"
-    image, meta = sampling_runtime.pack(probe, spec, layout=layout, budget=samples, height=rows)
+    image, meta = sampling_runtime.pack(probe, spec, layout=layout, budget=samples, height=rows,
+                                        lights=lights)
     if for_hybrid:
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
                                                samples=len(meta["prob"]))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
     reason = (f"runtime sampling: {len(meta['prob'])} samples over {meta['levels']} levels of "
               f"{rows} rows ({why})")
+    if lights:
+        reason += f"; {probe_lights.describe(lights)}"
     return (image, meta), reason
 
 
@@ -311,10 +325,18 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         size = "auto" if auto else settings.map_size
         max_size = settings.map_size if auto else None
         runtime = None
+        glossy_probe, lights = probe, ()
+        if settings.probe_lights and (sampled or runtime_path is not None):
+            # The sampled part and the Hybrid's map see the probe without its small
+            # bright lights; the lights are shaded exactly (bake.probe_lights).
+            lobe = sampling_runtime.check(spec, settings.samples)[0]
+            glossy_probe, lights = probe_lights.extract_kept(
+                probe, layout, probe_lights.max_spread_for(min(lobe.mx, lobe.my)))
         if sampled or runtime_path is not None:
             rows, why = runtime_height(settings, probe, layout)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
-                spec, settings.samples, rows, why, probe, layout, runtime_path is not None)),
+                spec, settings.samples, rows, why, glossy_probe, layout,
+                runtime_path is not None, lights)),
                 0.1, 0.3 if runtime_path is not None else 0.95)
         if sampled:
             image, atlas_meta = runtime
@@ -334,7 +356,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             start = 0.3 if runtime is not None else 0.1
             for index, (roughness, colour, job_path, job_spec) in enumerate(jobs):
                 baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
-                    probe, job_spec, "3d" if method == "hybrid" else method,
+                    glossy_probe, job_spec, "3d" if method == "hybrid" else method,
                     size, slices=settings.slices,
                     lobes_count=settings.lobes if method in ("3d", "hybrid") else 1,
                     layout=layout, max_size=max_size)),

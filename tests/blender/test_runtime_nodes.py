@@ -28,3 +28,20 @@ def test_runtime_nodes_match_the_numpy_twin_for_an_anisotropic_lobe(tmp_path, hd
     assert large["nodes"] == small["nodes"] < 150
     for graph in (small, large):
         assert graph["iterations"] == [graph["samples"]] * 2
+
+
+def test_runtime_nodes_match_the_numpy_twin_with_probe_lights(tmp_path, hdri_dir):
+    """Isotropic GGX 0.3 in sunrise.exr with its sun taken out of the probe
+    (bake.probe_lights) and one more light added: the light groups (the exact
+    GGX term per light, scaled by rho / A_ss) render what
+    bake.sampling_runtime.light_radiance computes, to the half-float tolerances
+    of the test above (the light term is smooth: a frame off by 1e-3 rad moves
+    it by about as much)."""
+    result = run_script("runtime_render.py", ROOT, tmp_path, hdri_dir / "sunrise.exr",
+                        "ggx:roughness=0.3", "lights", tmp_path / "r.json")
+    assert result["lights"] >= 2  # the sun and the added light
+    assert result["light_share"] > 0.1  # the lights are a visible part of the image
+    assert result["light_peak"] > 1.0
+    assert result["median"] < 3e-3
+    assert result["p99"] < 2e-2
+    assert result["max"] < 5e-2

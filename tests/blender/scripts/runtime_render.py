@@ -1,7 +1,11 @@
 """Render the runtime-sampling material with EEVEE and record it beside
 bake.sampling_runtime.shade evaluated at each pixel's own normal and tangent.
 
-    python runtime_render.py REPO WORKDIR HDRI SPEC RESULT.json
+    python runtime_render.py REPO WORKDIR HDRI SPEC [lights] RESULT.json
+
+With ``lights``, the probe's small bright lights are taken out
+(bake.probe_lights) and one more light is added, so the exact light term
+(a group per light) is part of what is compared.
 
 A sphere under an orthographic camera (view +Z everywhere), its tangent
 Blender's radial one about Z. Three renders with identical settings: the
@@ -16,17 +20,24 @@ from pathlib import Path
 import numpy as np
 
 repo, workdir, hdri, spec, result_path = (Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3],
-                                          sys.argv[4], sys.argv[5])
+                                          sys.argv[4], sys.argv[-1])
+with_lights = sys.argv[5:-1] == ["lights"]
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from _ortho_sphere import ortho_sphere_scene  # noqa: E402
-from glossy.bake import envmap, exr, sampling_runtime  # noqa: E402
+from glossy.bake import envmap, exr, probe_lights, sampling_runtime  # noqa: E402
 from glossy.glossy_addon.nodes import load_atlas  # noqa: E402
 from glossy.glossy_addon.sampling_nodes import build_runtime  # noqa: E402
 
 environment, _ = exr.read(hdri)
 probe = envmap.convert(environment, "latlong", "cube", 16)
-image_data, meta = sampling_runtime.pack(probe, spec)
+lights = []
+if with_lights:
+    probe, lights = probe_lights.extract(probe)
+    direction = np.array([0.35, -0.2, 0.9])  # seen in highlights by the +Z view
+    lights.append(probe_lights.Light(direction / np.linalg.norm(direction),
+                                     np.array([3.0, 2.0, 1.0]), 1e-3, 0.03))
+image_data, meta = sampling_runtime.pack(probe, spec, lights=lights)
 atlas_path = workdir / "runtime.exr"
 exr.write(atlas_path, image_data, meta)
 
@@ -92,9 +103,15 @@ on_sphere = (np.abs(np.linalg.norm(n, axis=-1) - 1.0) < 0.01) & (n[..., 2] > 0.0
 on_sphere &= np.abs(np.linalg.norm(t, axis=-1) - 1.0) < 0.01
 views = np.broadcast_to([0.0, 0.0, 1.0], n[on_sphere].shape)
 predicted = sampling_runtime.shade(image_data, meta, n[on_sphere], views, t[on_sphere])
+unlit = sampling_runtime.shade(image_data, {**meta, "lights": []}, n[on_sphere], views,
+                               t[on_sphere])
 rendered = renders["lookup"][on_sphere]
 relative = np.abs(rendered - predicted) / np.maximum(np.abs(predicted), 1e-3)
 with open(result_path, "w") as handle:
     json.dump({"pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
                "p99": float(np.percentile(relative, 99)), "max": float(relative.max()),
-               "mean_value": float(np.mean(predicted)), "graphs": graphs}, handle, indent=1)
+               "mean_value": float(np.mean(predicted)), "graphs": graphs,
+               "lights": len(lights),
+               "light_share": float(1.0 - np.mean(unlit) / np.mean(predicted)),
+               "light_peak": float(np.max((predicted - unlit) @ [0.2126, 0.7152, 0.0722]))},
+              handle, indent=1)

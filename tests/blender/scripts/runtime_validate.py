@@ -7,7 +7,8 @@ As a user's script: isolated spheres (ray visibility off, so none sees
 another), each with its own material and World Only probe (64 px faces),
 baked, attached and validated together (no scene camera: validation frames
 them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
-rotation(, samples(, {Principled BSDF input: value}))]: with the last, the
+rotation(, samples(, {Principled BSDF input: value}))] (a method ending in
+"-nolights" has Probe Lights off); with the last, the
 material is From Material, a Principled BSDF with those inputs; the default
 is one brushed sphere (GGX 0.3, anisotropy 0.8, Runtime Sampling, tangent
 radial about Z). Writes the validation report's
@@ -130,7 +131,9 @@ for index, (name, method, roughness, anisotropy, rotation, *extra) in enumerate(
         obj.glossy.probe_resolution = int(probe_face)
     material = bpy.data.materials.new(name)
     settings = material.glossy
-    settings.model, settings.method = "ggx", method
+    # "hybrid-nolights": the method with Probe Lights off (bake.probe_lights).
+    settings.probe_lights = not method.endswith("-nolights")
+    settings.model, settings.method = "ggx", method.removesuffix("-nolights")
     settings.roughness, settings.anisotropy, settings.rotation = roughness, anisotropy, rotation
     if principled is not None:  # From Material: a Principled BSDF with these inputs
         settings.model = "MATERIAL"
