@@ -56,6 +56,7 @@ from bake import (  # noqa: E402
     hybrid,
     lobes,
     prefilter,
+    probe_lights,
     probe_maps,
     sampling_runtime,
     slice_basis,
@@ -305,18 +306,24 @@ def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid
     ``hybrid_too``: also the Hybrid's runtime-sampling texture, what the default
     method (Auto) bakes for an isotropic GGX lobe (glossy_addon.method_choice):
     the level stack of the probe's own detail (twice a face's rows), 19
-    samples, the blend weights, written beside the map."""
+    samples, the blend weights, written beside the map; with Probe Lights on (the
+    default), both from the probe without its small bright lights."""
     start = time.perf_counter()
+    glossy_probe = probe
     if hybrid_too:
         tick = time.perf_counter()
-        image, meta = sampling_runtime.pack(probe, spec, budget=19, height=2 * probe.shape[0])
+        lobe = sampling_runtime.check(spec)[0]
+        glossy_probe, lights = probe_lights.extract_kept(
+            probe, "cube", probe_lights.max_spread_for(min(lobe.mx, lobe.my)))
+        image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19,
+                                            height=2 * probe.shape[0], lights=lights)
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
                                                samples=len(meta["prob"]))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
         exr.write(folder / "runtime.exr", image, meta)
         if steps is not None:
             steps.append(time.perf_counter() - tick)
-    generator = prefilter.prefilter_steps(probe, spec, "3d", "auto", layout="cube")
+    generator = prefilter.prefilter_steps(glossy_probe, spec, "3d", "auto", layout="cube")
     tick = time.perf_counter()
     while True:
         try:
