@@ -17,11 +17,15 @@ scale rho / A_ss on the same grid. The same slice holds the pattern, one
 sample per texel (p1, p2, prob_j as RGB) from atlas row ``sample_row`` (meta),
 column 1 + j mod W, row + j div W, so that the nodes read sample j in a loop
 (a repeat zone whose shader compiles once, whatever the sample count) rather
-than unrolled.
+than unrolled. After one empty row, the probe lights (below) follow from
+row ``light_row``, LIGHT_TEXELS texels each (:func:`light_texels`: the
+direction, the irradiance, the widened alphas), read by the nodes in a loop
+too.
 
 Probe lights (``pack(..., lights=)``, bake.probe_lights): the level stack is
-then of the probe without its small bright lights, and each light (world
-direction l, irradiance E, RMS radius r; ``meta["lights"]``) is added
+then of the probe without its small bright lights (and the tiles of its wide
+bright regions), and each light (world direction l, irradiance E, RMS
+radius r; ``meta["lights"]``, and in the atlas as the nodes read it) is added
 exactly: (rho / A_ss)(wo) D_B(h) G2(l, wo) / (4 wo_z) E, with h the half
 vector, A_ss the untinted single-scattering albedo (:func:`single_scatter_albedo`)
 and D_B GGX's D at alphas widened in quadrature by LIGHT_WIDENING r (the
@@ -91,6 +95,8 @@ MIN_COS = 1e-3
 ALBEDO_SAMPLES = 1024
 #: Visible-normal samples per entry of the lights' single-scattering albedo.
 LIGHT_ALBEDO_SAMPLES = 4096
+#: Atlas texels per probe light (light_texels).
+LIGHT_TEXELS = 3
 #: A light of RMS angular radius r widens the lobe's alphas by LIGHT_WIDENING r in
 #: quadrature (half-vector displacement is half the light's; Beckmann-like slopes).
 LIGHT_WIDENING = 0.5
@@ -227,10 +233,19 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     # empty, the samples.
     first = count_phi + light_rows + 2
     sample_rows = -(-len(prob) // width)
-    if first + sample_rows > height + 1:
-        raise BakeError(f"the level stack ({height} rows) is too small for {len(prob)} samples")
+    # Then one empty row and the lights, three texels each (light_texels).
+    light_first = first + sample_rows + 1
+    light_texel_rows = -(-LIGHT_TEXELS * len(lights) // width)
+    if first + sample_rows > height + 1 or (
+            lights and light_first + light_texel_rows > height + 1):
+        raise BakeError(f"the level stack ({height} rows) is too small for {len(prob)} samples"
+                        + (f" and {len(lights)} lights" if lights else ""))
     for j, ((p1, p2), q) in enumerate(zip(points, prob, strict=True)):
         extra_padded[first + j // width, 1 + j % width] = (p1, p2, q)
+    for j, texels in enumerate(light_texels(lights, lobe.mx, lobe.my)):
+        for c, value in enumerate(texels):
+            t = LIGHT_TEXELS * j + c
+            extra_padded[light_first + t // width, 1 + t % width] = value
     atlas = np.concatenate([levels, extra_padded], axis=0)
     meta.update({
         "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
@@ -240,6 +255,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         "spacing": plan.spacing, "circles": len(plan.radii),
         "disk": points.tolist(), "prob": prob.tolist(), "pattern": pattern,
         "sample_row": int(meta["slices"] * (height + 2) + first),
+        "light_row": int(meta["slices"] * (height + 2) + light_first),
         "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS,
         "lights": [light.to_json() for light in lights]})
     return atlas.astype(np.float32), meta
@@ -265,6 +281,33 @@ def _albedo(atlas, meta, wo, table=0):
     top = atlas[y0, x0] * (1 - fx) + atlas[y0, x0 + 1] * fx
     bottom = atlas[y1, x0] * (1 - fx) + atlas[y1, x0 + 1] * fx
     return top * (1 - fy) + bottom * fy
+
+
+def light_texels(lights, ax, ay):
+    """Per light its LIGHT_TEXELS texels (RGB each) as the atlas holds them: the
+    world direction, the irradiance, and (bx, by, spread) with the alphas widened
+    by the light's extent (light_radiance)."""
+    rows = []
+    for light in lights:
+        data = light.to_json() if hasattr(light, "to_json") else light
+        spread = float(data.get("spread", 0.0))
+        widen = (LIGHT_WIDENING * spread) ** 2
+        rows.append((tuple(data["direction"]), tuple(data["irradiance"]),
+                     (float(np.sqrt(ax * ax + widen)), float(np.sqrt(ay * ay + widen)), spread)))
+    return rows
+
+
+def lights_of(atlas, meta):
+    """(directions (N, 3), irradiances (N, 3), widened alphas (N, 2)) of the probe
+    lights as the nodes read them: from the atlas's light texels (module doc)."""
+    count = len(meta.get("lights") or [])
+    if not count:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2))
+    width = int(meta["slice_width"])
+    t = np.arange(LIGHT_TEXELS * count)
+    texels = np.asarray(atlas)[int(meta["light_row"]) + t // width, 1 + t % width, :3]
+    texels = texels.astype(np.float64).reshape(count, LIGHT_TEXELS, 3)
+    return texels[:, 0], texels[:, 1], texels[:, 2, :2]
 
 
 def samples_of(atlas, meta):
@@ -429,17 +472,16 @@ def light_radiance(atlas, meta, frames, wo):
     ax, ay = float(meta["ax"]), float(meta["ay"])
     total = np.zeros((len(wo), 3))
     lambda_o = ggx_lambda(wo, ax, ay)
-    for light in meta["lights"]:
-        wi = frames @ np.asarray(light["direction"], dtype=np.float64)  # (B, 3)
+    # The light's extent blurs the lobe: its half vectors spread by half its RMS
+    # angle, added in quadrature to the slopes' (Gaussian widths add): the widened
+    # alphas (bx, by) are in the atlas (light_texels).
+    for direction, irradiance, (bx, by) in zip(*lights_of(atlas, meta), strict=True):
+        wi = frames @ direction  # (B, 3); unit to float32 rounding, as the nodes take it
         h = wi + wo
         h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-30)
         valid = (wi[:, 2] > 0) & (np.sum(wo * h, axis=1) > 0)
-        # The light's extent blurs the lobe: its half vectors spread by half its
-        # RMS angle, added in quadrature to the slopes' (Gaussian widths add).
-        widen = (LIGHT_WIDENING * float(light.get("spread", 0.0))) ** 2
-        bx, by = np.sqrt(ax * ax + widen), np.sqrt(ay * ay + widen)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             value = ggx_d(h, bx, by) / (4.0 * wo[:, 2] * (1.0 + lambda_o
                                                           + ggx_lambda(wi, ax, ay)))
-        total += np.where(valid, value, 0.0)[:, None] * np.asarray(light["irradiance"])
+        total += np.where(valid, value, 0.0)[:, None] * irradiance
     return total * _albedo(atlas, meta, wo, table=1)

@@ -92,7 +92,7 @@ def renders(name, directory, size=64, face=64, with_lights=False):
         probe, lights, light_term = cube, (), 0.0
         if with_lights:
             probe, lights = probe_lights.extract(
-                cube, max_spread=probe_lights.max_spread_for(roughness ** 2))
+                cube, **probe_lights.limits_for(roughness ** 2))
             light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, lights) \
                 - runtime_twin(probe, spec, BUDGETS[0], normals, views)
         baked = (prefilter.prefilter(probe, spec, "3d", "auto").shade(normals, views)

@@ -77,7 +77,7 @@ def main():
             if args.lights:
                 lobe = lobe_of(model)
                 residual, lights = probe_lights.extract(
-                    probe, max_spread=probe_lights.max_spread_for(min(lobe.mx, lobe.my)))
+                    probe, **probe_lights.limits_for(min(lobe.mx, lobe.my)))
                 split, split_meta = sampling_runtime.pack(residual, args.spec, budget=budget,
                                                           height=2 * args.face, lights=lights)
                 estimate = sampling_runtime.shade(split, split_meta, normals, views,

@@ -33,7 +33,8 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
            "probe": probe_key}
     if method in ("runtime", "hybrid"):
         key["samples"] = material_settings.samples
-        key["probe_lights"] = material_settings.probe_lights
+        # The lights' layout in the runtime texture changed with tiles (version 2).
+        key["probe_lights"] = [material_settings.probe_lights, 2]
     if material_settings.model == "MATERIAL" and not spec.startswith("unreadable"):
         from .material_source import parts  # the read spec, weights and images
 

@@ -204,8 +204,10 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "pixel, not shader compile time", default=19, min=1, max=444, soft_max=200)
     probe_lights: bpy.props.BoolProperty(
         name="Probe Lights", description="Runtime Sampling and Hybrid: take the probe's small "
-        "bright lights (a sun, lamps a few texels wide) out of it and shade them exactly as "
-        "directional lights (bake.probe_lights); sampling and the map then see the rest",
+        "bright lights (a sun, lamps a few texels wide) out of it, and its wide bright "
+        "regions (softboxes, windows) as tiles of a quarter of the lobe's width, and shade "
+        "them exactly as directional lights (bake.probe_lights; at most 96 per material); "
+        "sampling and the map then see the rest",
         default=True)
     runtime_path: bpy.props.StringProperty(
         name="Baked Sampling Levels", description="The runtime-sampling texture of a Hybrid "

@@ -10,7 +10,9 @@ weights from ``Glossy Atlas Taps v1``, two levels per sample) inside two
 repeat zones over the samples (the strongest weight, then the kept sum),
 normalised and scaled by the tabulated albedo. EEVEE compiles a repeat zone as
 a loop: the shader's size and compile time do not grow with the sample count
-(unrolled, 19 samples took 49 s to compile here). nodes.build_lookup attaches
+(unrolled, 19 samples took 49 s to compile here). The probe lights are a third
+repeat zone, each light's constants read from its atlas texels and shaded by
+one shared group (``Glossy Probe Light v3``). nodes.build_lookup attaches
 it (methods Runtime Sampling and Hybrid); :func:`hybrid_value` blends it with the 3D map.
 """
 
@@ -202,29 +204,28 @@ def light_group(ax, ay):
     return tree
 
 
-def _light_widening():
-    from ..bake.sampling_runtime import LIGHT_WIDENING
-
-    return LIGHT_WIDENING
-
-
 def _lights_value(b, image, meta, frame):
-    """The probe lights' radiance (colour socket), or None without lights."""
+    """The probe lights' radiance (colour socket), or None without lights: a repeat
+    zone over the lights, each read from its three atlas texels (direction,
+    irradiance, widened alphas; bake.sampling_runtime.light_texels) and shaded by
+    :func:`light_group`, then scaled by rho / A_ss."""
     lights = meta.get("lights") or []
     if not lights:
         return None
     ax, ay = float(meta["ax"]), float(meta["ay"])
-    widening = _light_widening()
-    total = None
-    for light in lights:
-        widen = (widening * float(light.get("spread", 0.0))) ** 2
-        node = _group_node(b, light_group(ax, ay), {
-            "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
-            "Lambda": frame["Lambda"], "Direction": tuple(float(x) for x in light["direction"]),
-            "Irradiance": tuple(float(x) for x in light["irradiance"]),
-            "BX": math.sqrt(ax * ax + widen), "BY": math.sqrt(ay * ay + widen)})
-        total = node["Radiance"] if total is None else b.vec("ADD", total, node["Radiance"])
-    return b.vec("MULTIPLY", total, _albedo(b, image, meta, frame["Wo"], table=1))
+    group = light_group(ax, ay)
+    state, result, after = _repeat_zone(b, len(lights), [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
+    first = b.math("MULTIPLY", state["Iteration"], 3.0)
+    direction, irradiance, alphas = (
+        _texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
+        for c in range(3))
+    bx, by, _ = b.separate(alphas)
+    node = _group_node(b, group, {
+        "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
+        "Lambda": frame["Lambda"], "Direction": direction, "Irradiance": irradiance,
+        "BX": bx, "BY": by})
+    b.link(b.vec("ADD", state["Sum"], node["Radiance"]), result["Sum"])
+    return b.vec("MULTIPLY", after["Sum"], _albedo(b, image, meta, frame["Wo"], table=1))
 
 
 def _repeat_zone(b, iterations, items):
@@ -247,17 +248,23 @@ def _repeat_zone(b, iterations, items):
     return start.outputs, end.inputs, end.outputs
 
 
-def _sample_data(b, image, meta, index):
-    """(P1, P2, Prob) of sample ``index`` (a socket) from its texel (module doc of
-    bake.sampling_runtime: row sample_row + index div W, column 1 + index mod W)."""
+def _texel(b, image, meta, first_row, index):
+    """The atlas texel (colour socket) number ``index`` (a socket) of a run of texels
+    from row ``first_row``: row first_row + index div W, column 1 + index mod W
+    (bake.sampling_runtime's layout of samples and lights)."""
     height, width = int(meta["slice_height"]), int(meta["slice_width"])
     rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
     row = b.math("ADD", b.math("FLOOR", b.math("DIVIDE", b.math("ADD", index, 0.5), width)),
-                 float(meta["sample_row"]) + 0.5)
+                 first_row + 0.5)
     column = b.math("ADD", b.math("FLOORED_MODULO", index, float(width)), 1.5)
-    texel = _tap(b, b.combine(b.math("DIVIDE", column, cols),
-                              b.math("SUBTRACT", 1.0, b.math("DIVIDE", row, rows))), image)
-    return b.separate(texel)
+    return _tap(b, b.combine(b.math("DIVIDE", column, cols),
+                             b.math("SUBTRACT", 1.0, b.math("DIVIDE", row, rows))), image)
+
+
+def _sample_data(b, image, meta, index):
+    """(P1, P2, Prob) of sample ``index`` (a socket) from its texel (module doc of
+    bake.sampling_runtime: row sample_row + index div W, column 1 + index mod W)."""
+    return b.separate(_texel(b, image, meta, float(meta["sample_row"]), index))
 
 
 def runtime_value(b, image, meta, normal, view, tangent):
@@ -275,7 +282,7 @@ def runtime_parts(b, image, meta, normal, view, tangent):
     Two repeat zones over the samples (their constants read from the atlas): the
     first finds the strongest weight, the second sums the kept weights and their
     weighted radiance (two stored levels, four Closest taps each)."""
-    if "sample_row" not in meta:
+    if "sample_row" not in meta or (meta.get("lights") and "light_row" not in meta):
         raise ValueError("this runtime-sampling texture predates the looped nodes: bake again")
     ax, ay = float(meta["ax"]), float(meta["ay"])
     levels, height, width = int(meta["levels"]), int(meta["slice_height"]), \

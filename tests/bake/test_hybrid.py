@@ -118,7 +118,7 @@ def test_the_hybrid_beats_both_methods_on_environments_it_was_not_measured_on():
             # As the bake makes them (Probe Lights on): both parts from the residual,
             # the lights' exact term added to each.
             residual, lights = probe_lights.extract(
-                env, max_spread=probe_lights.max_spread_for(roughness ** 2))
+                env, **probe_lights.limits_for(roughness ** 2))
             atlas, meta = sampling_runtime.pack(residual, spec, layout="cube", height=64,
                                                 lights=lights)
             light_term = sampling_runtime.shade(atlas, meta, normals, views) - \

@@ -33,10 +33,14 @@ environment, _ = exr.read(hdri)
 probe = envmap.convert(environment, "latlong", "cube", 16)
 lights = []
 if with_lights:
-    probe, lights = probe_lights.extract(probe)
-    direction = np.array([0.35, -0.2, 0.9])  # seen in highlights by the +Z view
-    lights.append(probe_lights.Light(direction / np.linalg.norm(direction),
-                                     np.array([3.0, 2.0, 1.0]), 1e-3, 0.03))
+    probe, lights = probe_lights.extract(probe, **probe_lights.limits_for(0.09))
+    # Lights seen in highlights by the +Z view, as small lights and tiles are: the
+    # nodes loop over them, reading each from the atlas.
+    for k, (x, y) in enumerate(((0.35, -0.2), (-0.3, 0.25), (0.1, 0.4), (-0.15, -0.35))):
+        direction = np.array([x, y, 0.9])
+        lights.append(probe_lights.Light(direction / np.linalg.norm(direction),
+                                         np.array([3.0, 2.0, 1.0]) / (1 + k), 1e-3,
+                                         0.03 * k, tile=k > 1))
 image_data, meta = sampling_runtime.pack(probe, spec, lights=lights)
 atlas_path = workdir / "runtime.exr"
 exr.write(atlas_path, image_data, meta)
