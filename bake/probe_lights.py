@@ -13,8 +13,11 @@ directional light of irradiance E (W/m^2 facing it): f(l, v) cos(theta_l) E,
 the BRDF evaluated exactly instead of sampled (bake.sampling_runtime).
 
 What counts as a light (every figure a constant of this module):
-- texels brighter than THRESHOLD times the probe's mean luminance (over the
-  sphere, by solid angle);
+- texels brighter than a threshold times the probe's mean luminance (over
+  the sphere, by solid angle): THRESHOLD for :func:`extract`; for a lobe,
+  :func:`extract_for` tries THRESHOLDS (20x down to 2x) and keeps the lowest
+  at which every bright region fits in MAX_LIGHTS, so that as much of the
+  probe as the budget allows is shaded exactly;
 - grouped greedily, brightest first, into clusters of radius RADIUS_TEXELS
   texels (the probe's largest texel's angle) around their brightest texel;
   clusters that touch form one bright region;
@@ -25,7 +28,9 @@ What counts as a light (every figure a constant of this module):
   given: its texels are grouped again, brightest first, into tiles of that
   angular radius, one light each, so the region is integrated exactly up to
   the point rule within a tile (:func:`limits_for` a lobe: a quarter of its
-  alpha). Without ``tile_radius`` it stays in the probe;
+  alpha up to GGX 0.3, half from 0.6, :func:`tile_fraction`; of the geometric
+  mean of its two alphas when anisotropic). Without ``tile_radius`` it
+  stays in the probe;
 - whole regions are taken, the most energetic first, while the lights stay
   within MAX_LIGHTS (a region needing more tiles than are left stays in the
   probe, where the probe's methods see it).
@@ -42,7 +47,12 @@ fails for a tile wider than the lobe in light space, which at n.v = 0.2-0.4
 is about a third of its width at normal incidence; widening the lobe by the
 tile's extent, as for a small light, recovers little of it (0.097 -> 0.074
 for the light part at k = 0.5). At GGX 0.6 four to ten tiles take studio
-from 0.192 to 0.033.
+from 0.192 to 0.033, and k = 0.5 measured as well as 0.25 there (0.028);
+with the threshold lowered to 2x (38-87 lights of half an alpha) the hybrid
+of bake.hybrid measured 0.040 / 0.039 / 0.039 / 0.021 / 0.047 / 0.016 /
+0.018 / 0.038 on city / courtyard / forest / interior / night / studio /
+sunrise / sunset, against 0.062 / 0.111 / 0.084 / 0.055 / 0.069 / 0.028 /
+0.030 / 0.067 at 20x (sunset, city: one light; courtyard: none).
 
 Measured for the small lights alone (GGX 0.3, 64^2-face probes, 19 samples,
 a sphere against the brute-force integral over the whole probe): runtime
@@ -52,6 +62,7 @@ interior 0.120 -> 0.020, night 0.246 -> 0.032, sunrise 0.123 -> 0.009.
 Directions are world space (bake.envmap's axes); irradiance is RGB.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,8 +70,9 @@ import numpy as np
 from .envmap import get_layout
 from .errors import BakeError
 
-__all__ = ["Light", "extract", "extract_kept", "limits_for", "describe", "THRESHOLD",
-           "RADIUS_TEXELS", "MAX_LIGHTS", "TILE_PER_ALPHA"]
+__all__ = ["Light", "extract", "extract_for", "extract_kept", "limits_for", "tile_fraction",
+           "describe", "THRESHOLD", "THRESHOLDS", "RADIUS_TEXELS", "MAX_LIGHTS",
+           "TILE_FRACTIONS"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Texels brighter than this many times the probe's mean luminance may be lights.
@@ -78,9 +90,12 @@ GROUP_RADIUS_TEXELS = 3.0
 #: Lights wider than this many times a GGX lobe's smallest alpha stay in the probe
 #: (or are tiled).
 SPREAD_PER_ALPHA = 1.5
-#: Tiles of a wide region have this angular radius per unit of the lobe's smallest
-#: alpha (module doc).
-TILE_PER_ALPHA = 0.25
+#: Tiles of a wide region have a radius of a fraction of the lobe's alpha: (alpha,
+#: fraction) at two alphas, log-linear between and constant beyond (tile_fraction).
+TILE_FRACTIONS = ((0.09, 0.25), (0.36, 0.5))
+#: Thresholds (times the probe's mean luminance) tried from the highest; the
+#: lowest at which every bright region fits in MAX_LIGHTS is used (extract_for).
+THRESHOLDS = (20.0, 10.0, 5.0, 3.0, 2.0)
 
 
 @dataclass
@@ -90,30 +105,32 @@ class Light:
     facing it (the cluster's radiance above the threshold times solid angle);
     ``solid_angle`` sr and ``spread`` rad (the energy-weighted RMS angle of its
     texels from the direction) of the cluster, for reports; ``tile``: one tile of
-    a wide bright region (module doc) rather than a small light."""
+    a wide bright region (module doc) rather than a small light; ``threshold``:
+    the multiple of the probe's mean luminance above which it was taken."""
 
     direction: np.ndarray
     irradiance: np.ndarray
     solid_angle: float
     spread: float
     tile: bool = False
+    threshold: float = THRESHOLD
 
     def to_json(self) -> dict:
         return {"direction": [float(x) for x in self.direction],
                 "irradiance": [float(x) for x in self.irradiance],
                 "solid_angle": float(self.solid_angle), "spread": float(self.spread),
-                "tile": bool(self.tile)}
+                "tile": bool(self.tile), "threshold": float(self.threshold)}
 
     @classmethod
     def from_json(cls, data) -> "Light":
         return cls(np.asarray(data["direction"], dtype=np.float64),
                    np.asarray(data["irradiance"], dtype=np.float64),
                    float(data.get("solid_angle", 0.0)), float(data.get("spread", 0.0)),
-                   bool(data.get("tile", False)))
+                   bool(data.get("tile", False)), float(data.get("threshold", THRESHOLD)))
 
 
 def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXELS,
-            max_lights=MAX_LIGHTS, max_spread=None, tile_radius=None):
+            max_lights=MAX_LIGHTS, max_spread=None, tile_radius=None, require_all=False):
     """(residual, lights) of a probe (H, W, 3) in ``layout`` (module doc).
 
     residual: float32 (H, W, 3), the probe with each taken texel scaled down
@@ -123,7 +140,9 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     (rad): a bright region whose RMS angular radius (:class:`Light`'s spread)
     exceeds it is wide. ``tile_radius`` (rad): wide regions are tiled into
     lights of this radius (None: they stay in the probe). :func:`limits_for`
-    gives both for a lobe.
+    gives both for a lobe. ``require_all``: return None, as soon as it is
+    known, when some bright region cannot be taken within ``max_lights``
+    (:func:`extract_for`'s ladder of thresholds).
     """
     image = np.asarray(probe)
     if image.ndim != 3 or image.shape[2] < 3:
@@ -154,6 +173,7 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     regions = _regions(members, directions, radius, texel_angle)
     cos_group = np.cos(GROUP_RADIUS_TEXELS * texel_angle)
     candidates = []  # (energy, [(texels, is_tile)])
+    count = 0
     for group in regions:
         texels = np.concatenate([members[k] for k in group])
         weights = np.maximum(luminance[texels] - level, 0.0) * omega[texels]
@@ -168,8 +188,13 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
             ordered = texels[np.argsort(-luminance[texels], kind="stable")]
             parts = [(np.asarray(tile), True)
                      for tile in _clusters(ordered, directions, tile_radius)]
+        elif require_all:
+            return None
         else:
             continue  # a wide bright region, not tiled: left in the probe
+        count += len(parts)
+        if require_all and count > max_lights:
+            return None
         candidates.append((float(np.sum(weights)), parts))
     candidates.sort(key=lambda c: -c[0])
     lights = []
@@ -185,7 +210,7 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
             direction /= np.linalg.norm(direction)
             spread = _spread(directions[texels], omega[texels], weights, direction)
             lights.append(Light(direction, excess.sum(axis=0), float(omega[texels].sum()),
-                                spread, tile))
+                                spread, tile, float(threshold)))
             flat[texels] = (radiance[texels] * scale[:, None]).astype(np.float32)
     return residual, lights
 
@@ -251,24 +276,63 @@ def max_spread_for(alpha):
     return SPREAD_PER_ALPHA * float(alpha)
 
 
-def limits_for(alpha) -> dict:
-    """:func:`extract`'s keyword arguments for a GGX lobe of smallest alpha ``alpha``:
-    ``max_spread`` (:func:`max_spread_for`) and ``tile_radius`` = TILE_PER_ALPHA
-    alpha."""
-    return {"max_spread": max_spread_for(alpha), "tile_radius": TILE_PER_ALPHA * float(alpha)}
+def tile_fraction(alpha) -> float:
+    """Tile radius per unit of a lobe's alpha: TILE_FRACTIONS' 0.25 up to alpha 0.09
+    (GGX 0.3; studio.exr needs it: module doc), 0.5 from alpha 0.36 (GGX 0.6,
+    where half an alpha measured as well as a quarter: studio 0.028 either way,
+    and takes a quarter of the lights), linear in log alpha between."""
+    (a0, f0), (a1, f1) = TILE_FRACTIONS
+    t = (math.log(max(float(alpha), 1e-9)) - math.log(a0)) / (math.log(a1) - math.log(a0))
+    return f0 + (f1 - f0) * min(max(t, 0.0), 1.0)
 
 
-def extract_kept(probe, layout="cube", max_spread=None, tile_radius=None):
-    """:func:`extract` with the module's defaults, computed once per probe content,
-    ``max_spread`` and ``tile_radius`` (bake.probe_maps.ProbeMaps.kept): the
-    materials of one probe share it. Do not modify the residual."""
+def limits_for(ax, ay=None) -> dict:
+    """:func:`extract`'s keyword arguments for a GGX lobe of alphas ``ax``, ``ay``
+    (``ay`` None: isotropic): ``max_spread`` (:func:`max_spread_for` the smaller)
+    and ``tile_radius`` = :func:`tile_fraction` times sqrt(ax ay). For an
+    anisotropic lobe the geometric mean rather than the smaller alpha: on GGX
+    0.3 with anisotropy 0.8 (alphas 0.018 and 0.45, 14 samples, studio.exr,
+    64^2-face probe) tiles of a quarter of the smaller alpha are single
+    texels, 113 of them, more than MAX_LIGHTS allows (0.129 against the
+    brute-force integral with the 83 that fit, 0.030 with all 113), and of the
+    geometric mean 72 lights, 0.046."""
+    ay = ax if ay is None else ay
+    mean = float(np.sqrt(ax * ay))
+    return {"max_spread": max_spread_for(min(ax, ay)),
+            "tile_radius": tile_fraction(mean) * mean}
+
+
+def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
+    """:func:`extract` for a GGX lobe (:func:`limits_for`) at the lowest of THRESHOLDS
+    at which every bright region is taken within ``max_lights``: the more of the
+    probe is shaded exactly, the less is left to the probe's methods; at
+    THRESHOLDS[0] when even that does not fit (then whole regions, the most
+    energetic first, as many as fit). Each light records its threshold."""
+    limits = limits_for(ax, ay)
+    chosen = None
+    for threshold in THRESHOLDS:
+        split = extract(probe, layout, threshold=threshold, max_lights=max_lights,
+                        require_all=True, **limits)
+        if split is None:
+            break
+        chosen = split
+    if chosen is None:
+        chosen = extract(probe, layout, threshold=THRESHOLDS[0], max_lights=max_lights,
+                         **limits)
+    return chosen
+
+
+def extract_kept(probe, layout="cube", ax=0.09, ay=None):
+    """:func:`extract_for` computed once per probe content and lobe
+    (bake.probe_maps.ProbeMaps.kept): the materials of one probe share it. Do
+    not modify the residual."""
     from .probe_maps import probe_maps
 
-    keys = tuple(None if x is None else round(float(x), 9) for x in (max_spread, tile_radius))
+    key = (round(float(ax), 9), round(float(ax if ay is None else ay), 9))
     return probe_maps(probe, layout).kept(
-        ("probe lights", THRESHOLD, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
-         GROUP_RADIUS_TEXELS, keys),
-        lambda: extract(probe, layout, max_spread=max_spread, tile_radius=tile_radius))
+        ("probe lights", THRESHOLDS, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
+         GROUP_RADIUS_TEXELS, TILE_FRACTIONS, key),
+        lambda: extract_for(probe, layout, ax, ay))
 
 
 def describe(lights) -> str:
@@ -281,5 +345,7 @@ def describe(lights) -> str:
     widest = max(light.spread for light in lights)
     tiles = sum(1 for light in lights if light.tile)
     kinds = f", {tiles} of them tiles of wide bright regions" if tiles else ""
-    return (f"{len(lights)} light(s) taken from the probe{kinds} (brightest {brightest:.3g} "
-            f"W/m^2, at most {np.degrees(widest):.2g} degrees RMS)")
+    above = min(light.threshold for light in lights)
+    return (f"{len(lights)} light(s) taken from the probe above {above:g}x its mean "
+            f"luminance{kinds} (brightest {brightest:.3g} W/m^2, at most "
+            f"{np.degrees(widest):.2g} degrees RMS)")

@@ -91,8 +91,7 @@ def renders(name, directory, size=64, face=64, with_lights=False):
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
         probe, lights, light_term = cube, (), 0.0
         if with_lights:
-            probe, lights = probe_lights.extract(
-                cube, **probe_lights.limits_for(roughness ** 2))
+            probe, lights = probe_lights.extract_for(cube, "cube", roughness ** 2)
             light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, lights) \
                 - runtime_twin(probe, spec, BUDGETS[0], normals, views)
         baked = (prefilter.prefilter(probe, spec, "3d", "auto").shade(normals, views)

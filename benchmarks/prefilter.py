@@ -313,8 +313,7 @@ def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid
     if hybrid_too:
         tick = time.perf_counter()
         lobe = sampling_runtime.check(spec)[0]
-        glossy_probe, lights = probe_lights.extract_kept(
-            probe, "cube", **probe_lights.limits_for(min(lobe.mx, lobe.my)))
+        glossy_probe, lights = probe_lights.extract_kept(probe, "cube", lobe.mx, lobe.my)
         image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19,
                                             height=2 * probe.shape[0], lights=lights)
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),

@@ -76,8 +76,8 @@ def main():
                               f"{len(meta['prob'])} smp")
             if args.lights:
                 lobe = lobe_of(model)
-                residual, lights = probe_lights.extract(
-                    probe, **probe_lights.limits_for(min(lobe.mx, lobe.my)))
+                residual, lights = probe_lights.extract_for(probe, "cube", lobe.mx,
+                                                            lobe.my)
                 split, split_meta = sampling_runtime.pack(residual, args.spec, budget=budget,
                                                           height=2 * args.face, lights=lights)
                 estimate = sampling_runtime.shade(split, split_meta, normals, views,

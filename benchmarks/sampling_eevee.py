@@ -108,8 +108,7 @@ def runtime(budget, for_hybrid=False, lights=False):
     source, taken = probe, ()
     if lights:
         lobe = sampling_runtime.check(spec)[0]
-        source, taken = probe_lights.extract(
-            probe, **probe_lights.limits_for(min(lobe.mx, lobe.my)))
+        source, taken = probe_lights.extract_for(probe, "cube", lobe.mx, lobe.my)
     data, meta = sampling_runtime.pack(source, spec, budget=budget, height=256, lights=taken)
     if for_hybrid:
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),

@@ -330,8 +330,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             # The sampled part and the Hybrid's map see the probe without its small
             # bright lights; the lights are shaded exactly (bake.probe_lights).
             lobe = sampling_runtime.check(spec, settings.samples)[0]
-            glossy_probe, lights = probe_lights.extract_kept(
-                probe, layout, **probe_lights.limits_for(min(lobe.mx, lobe.my)))
+            glossy_probe, lights = probe_lights.extract_kept(probe, layout, lobe.mx, lobe.my)
         if sampled or runtime_path is not None:
             rows, why = runtime_height(settings, probe, layout)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(

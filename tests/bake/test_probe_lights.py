@@ -241,3 +241,28 @@ def test_tiles_shade_the_softbox_as_the_brute_force_integral_does():
 
     assert relative(part, part_truth) < 0.02
     assert relative(split, truth) < min(0.04, relative(whole, truth) / 2.5)
+
+
+def test_the_threshold_is_lowered_while_every_bright_region_fits():
+    """extract_for tries THRESHOLDS from the highest and keeps the lowest at which
+    every region above it is taken within MAX_LIGHTS: for GGX 0.6 (tiles of
+    half an alpha) the softbox and the brighter part of the sky fit at 2x the
+    mean, and more of the probe is then shaded exactly; for GGX 0.3 (tiles of
+    a quarter alpha) with room for a dozen lights only, the softbox does not
+    fit even at 20x and stays whole. Flux exact either way."""
+    probe, mask = _softbox_probe()
+    _, omega = _geometry()
+    flux = np.einsum("hwc,hw->c", probe, omega)
+    residual, lights = probe_lights.extract_for(probe, "cube", 0.36)
+    assert lights and {light.threshold for light in lights} == {probe_lights.THRESHOLDS[-1]}
+    assert "above 2x its mean luminance" in probe_lights.describe(lights)
+    after = np.einsum("hwc,hw->c", residual.astype(np.float64), omega) + sum(
+        light.irradiance for light in lights)
+    np.testing.assert_allclose(after, flux, rtol=1e-5)
+    high = probe_lights.extract(probe, **probe_lights.limits_for(0.36))[0]
+    taken = flux - np.einsum("hwc,hw->c", residual.astype(np.float64), omega)
+    assert np.all(taken > flux - np.einsum("hwc,hw->c", high.astype(np.float64), omega))
+    kept, none = probe_lights.extract_for(probe, "cube", 0.09, max_lights=12)
+    assert none == []
+    np.testing.assert_array_equal(kept, probe.astype(np.float32))
+    assert probe_lights.tile_fraction(0.09) == 0.25 and probe_lights.tile_fraction(1.0) == 0.5

@@ -3,9 +3,9 @@ bake.sampling_runtime.shade evaluated at each pixel's own normal and tangent.
 
     python runtime_render.py REPO WORKDIR HDRI SPEC [lights] RESULT.json
 
-With ``lights``, the probe's small bright lights are taken out
-(bake.probe_lights) and one more light is added, so the exact light term
-(a group per light) is part of what is compared.
+With ``lights``, the probe's bright lights are taken out
+(bake.probe_lights) and four more lights are added, so the exact light term
+(a loop over the lights' atlas texels) is part of what is compared.
 
 A sphere under an orthographic camera (view +Z everywhere), its tangent
 Blender's radial one about Z. Three renders with identical settings: the
@@ -33,7 +33,7 @@ environment, _ = exr.read(hdri)
 probe = envmap.convert(environment, "latlong", "cube", 16)
 lights = []
 if with_lights:
-    probe, lights = probe_lights.extract(probe, **probe_lights.limits_for(0.09))
+    probe, lights = probe_lights.extract_for(probe, "cube", 0.09)
     # Lights seen in highlights by the +Z view, as small lights and tiles are: the
     # nodes loop over them, reading each from the atlas.
     for k, (x, y) in enumerate(((0.35, -0.2), (-0.3, 0.25), (0.1, 0.4), (-0.15, -0.35))):
