@@ -207,6 +207,36 @@ def test_a_wide_bright_region_is_tiled_exactly_or_left_whole():
         probe_lights.extract(probe, tile_radius=0.0)
 
 
+def test_dim_bright_regions_get_wider_tiles():
+    """Two wide grey patches at threshold 2x: a small one far above it (excess 60x
+    the threshold's luminance: tiles of the given radius) and a larger one just
+    above it (excess 0.5x: (32 / 0.5)^(1/4) = 2.8 times wider). Flux exact; the
+    dim patch's tiles at least twice as wide (RMS, median), and none wider than
+    TILE_GROWTH radii."""
+    probe = _sky(48) * 0.05
+    directions, omega = _geometry(48)
+    bright = directions @ _unit((0.9, -0.3, 0.25)) >= np.cos(np.radians(8.0))
+    dim = directions @ _unit((-0.9, 0.3, 0.25)) >= np.cos(np.radians(20.0))
+    threshold, a, b = 2.0, 61.0, 1.5
+    # The mean m = m_sky + threshold m (a area_bright + b area_dim) / (4 pi): solve.
+    sky = float(np.sum((probe @ LUMINANCE) * omega * ~(bright | dim)) / (4 * np.pi))
+    share = threshold * (a * omega[bright].sum() + b * omega[dim].sum()) / (4 * np.pi)
+    level = threshold * sky / (1.0 - share)
+    probe[bright], probe[dim] = a * level, b * level
+    radius = np.radians(2.0)
+    residual, lights = probe_lights.extract(probe, threshold=threshold, tile_radius=radius,
+                                            max_lights=10 ** 4)
+    flux = np.einsum("hwc,hw->c", probe, omega)
+    after = np.einsum("hwc,hw->c", residual.astype(np.float64), omega) + sum(
+        light.irradiance for light in lights)
+    np.testing.assert_allclose(after, flux, rtol=1e-5)
+    side = np.array([light.direction[0] for light in lights])
+    spreads = np.array([light.spread for light in lights])
+    assert np.sum(side > 0) > 0 and np.sum(side < 0) > 0
+    assert np.median(spreads[side < 0]) > 2.0 * np.median(spreads[side > 0])
+    assert spreads.max() <= probe_lights.TILE_GROWTH * radius
+
+
 def test_tiles_shade_the_softbox_as_the_brute_force_integral_does():
     """GGX 0.3 on a sphere (every view elevation) lit by the softbox: the tiles'
     exact light terms (tiles of a quarter alpha, limits_for) against the
@@ -265,4 +295,8 @@ def test_the_threshold_is_lowered_while_every_bright_region_fits():
     kept, none = probe_lights.extract_for(probe, "cube", 0.09, max_lights=12)
     assert none == []
     np.testing.assert_array_equal(kept, probe.astype(np.float32))
-    assert probe_lights.tile_fraction(0.09) == 0.25 and probe_lights.tile_fraction(1.0) == 0.5
+    assert probe_lights.limits_for(0.09)["tile_radius"] == pytest.approx(0.0225)
+    # Tiles grow as (TILE_EXCESS / excess)^(1/4): 1 at 32x the threshold above it,
+    # 2 at 2x, at most 4.
+    np.testing.assert_allclose(probe_lights.tile_growth([100.0, 32.0, 2.0, 0.01]),
+                               [1.0, 1.0, 2.0, 4.0])
