@@ -32,9 +32,25 @@ TEXELS_PER_HALF_WIDTH = 4 (400 rows for the 32-px case): at Auto, doubling
 the rows changes the error by less than 1.2x (1.14x there;
 tests/bake/test_resolution.py asserts it at GGX 0.1).
 
-The probe face a lobe needs: the face whose half texel is no wider than the
-lobe (then the lobe, not the probe, sets the map); a world-only probe is
-further capped by the world image's own detail.
+The probe face a lobe needs (:func:`choose_probe_face`): the larger of the
+face whose half texel is no wider than the lobe (then the lobe, not the
+probe, sets the map) and PROBE_FACE_PER_ROOT_WIDTH / sqrt(w_lobe), the face
+at which the probe itself stops limiting the reflection; a world-only probe
+is further capped by the world image's own detail.
+
+The second term comes from the probe's own error: the brute-force integral
+of the true BRDF over the probe against the same over a 256 px probe of the
+HDRI (a 48 px isolated sphere, every bundled HDRI, /tmp sweep recorded in
+the README). It falls under about 2% at faces of 96 (GGX 0.2, w_lobe 0.026
+rad; studio.exr 11.5 / 4.1 / 3.7 / 0.5% at 40 / 48 / 64 / 96), 48 (GGX 0.3,
+w 0.056; studio 5.2 / 2.0% at 40 / 48), 40-48 (GGX 0.45, w 0.139; interior
+2.5%, studio 1.4% at 40) and 32 (GGX 0.6, w 0.267; studio 12.0 / 2.9 / 0.7%
+at 8 / 16 / 32, interior 2.7% at 32): about 16 / sqrt(w), not 1 / w. The
+half-texel rule alone gave 40 / 24 / 8 / 8 px faces there, where the probe
+was 4-12% off on sharp-edged lights (studio's softboxes, interior's window).
+Lamps a texel or two wide (night.exr, interior.exr) alias differently at
+every face size (night at GGX 0.2: 11-24% from 48 to 128 px, not falling):
+there the probe lights (bake.probe_lights), not the face, carry them.
 """
 
 import math
@@ -44,13 +60,17 @@ import numpy as np
 from .errors import BakeError
 from .probe_maps import latlong_detail_rows
 
-__all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "lobe_half_width", "ggx_half_width",
+__all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "PROBE_FACE_PER_ROOT_WIDTH", "lobe_half_width",
+           "ggx_half_width",
            "effective_half_width",
            "latlong_detail_rows",
            "rows_for_half_width", "Choice", "choose_map_rows", "choose_probe_face"]
 
 TEXELS_PER_HALF_WIDTH = 4.0
 MIN_ROWS = 16
+#: Auto probe faces are at least this over the root of the narrowest lobe's half
+#: width (rad): where the probe stops limiting the reflection (module doc).
+PROBE_FACE_PER_ROOT_WIDTH = 16.0
 
 
 def lobe_half_width(gamma, profile) -> float:
@@ -154,17 +174,22 @@ def choose_map_rows(half_widths, probe_shape, probe_layout, maximum=None, layers
 def choose_probe_face(half_widths, maximum, world_rows=None) -> Choice:
     """Auto cube face size of a probe for lobes of these widths (rad).
 
-    The face whose half texel at the face centre (1 / face rad) is no wider
-    than the narrowest lobe, so the map's rows follow the lobe rather than
-    the probe; a multiple of 8, at least 8. Capped by ``maximum`` (the
+    For the narrowest lobe w: the larger of 1 / w (its half texel at the face
+    centre no wider than the lobe, so the map's rows follow the lobe rather
+    than the probe) and PROBE_FACE_PER_ROOT_WIDTH / sqrt(w) (the probe's own
+    error under about 2%: module doc); a multiple of 8, at least 8. Capped by ``maximum`` (the
     user's field) and, for a world-only probe, by the world image's own
     detail ``world_rows`` (lat-long rows of the environment image: finer
     faces would only interpolate it).
     """
-    narrowest = float(min(half_widths)) if len(half_widths) else math.pi / 8
-    face = max(8, int(math.ceil(1.0 / narrowest / 8.0)) * 8)
-    reason = (f"{face} px faces: the narrowest lobe (width {math.degrees(narrowest):.2f} deg) "
-              f"is no narrower than half a texel")
+    if len(half_widths):
+        narrowest = float(min(half_widths))
+        wanted = max(1.0 / narrowest, PROBE_FACE_PER_ROOT_WIDTH / math.sqrt(narrowest))
+        face = max(8, int(math.ceil(wanted / 8.0)) * 8)
+        reason = (f"{face} px faces: where the probe stops limiting the narrowest lobe "
+                  f"(width {math.degrees(narrowest):.2f} deg)")
+    else:
+        face, reason = 8, "8 px faces: no Glossy lobe needs more"
     limited_by = "lobe"
     if world_rows is not None:
         world_face = max(8, int(math.ceil(2.0 * world_rows / math.pi / 8.0)) * 8)

@@ -31,10 +31,11 @@ def test_probe_at_volume_centroid_equals_camera_renders(tmp_path, hdri_dir):
     assert "probe resolution must be between 8 and 4096, not 0" in result["resolution_zero"]
     assert result["poll_without_mesh"] is False
     # Auto: GGX 0.1's lobe is 0.0066 rad wide at its narrowest (grazing) slice, so the
-    # face is the multiple of 8 with 1 / N <= 0.0066: 152 (forest.exr's 512 rows would
-    # allow up to 328); a Max Probe Resolution of 64 caps it and says so.
-    assert result["auto_shape"] == [152, 6 * 152, 3]
-    assert result["auto_reason"].startswith("152 px faces: the narrowest lobe")
+    # face is the multiple of 8 at or above max(1 / 0.0066, 16 / sqrt(0.0066)) = 197:
+    # 200 (forest.exr's 512 rows would allow up to 328); a Max Probe Resolution of 64
+    # caps it and says so.
+    assert result["auto_shape"] == [200, 6 * 200, 3]
+    assert result["auto_reason"].startswith("200 px faces: where the probe stops limiting")
     assert result["auto_meta_reason"] == result["auto_reason"]
     assert result["auto_capped_shape"] == [64, 6 * 64, 3]
-    assert "limited by Max Probe Resolution (Auto wanted 152)" in result["auto_capped_reason"]
+    assert "limited by Max Probe Resolution (Auto wanted 200)" in result["auto_capped_reason"]
