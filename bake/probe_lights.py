@@ -298,7 +298,7 @@ def tile_growth(excess):
 
     Measured (the hybrid of bake.hybrid with 19 samples, 64^2-face probes, a 64^2
     px sphere against the brute-force integral, root mean square over the eight
-    bundled HDRIs; the README records the sweep): one radius for all tiles (a
+    bundled HDRIs; a one-off sweep, its figures in the README): one radius for all tiles (a
     quarter of alpha to GGX 0.3, half from 0.6) gave 0.111 / 0.027 / 0.030 /
     0.023 at GGX 0.2 / 0.3 / 0.45 / 0.6; a quarter of alpha grown this way
     0.043 / 0.021 / 0.021 / 0.022 (TILE_EXCESS 16: 0.043 / 0.022 / 0.022 /

@@ -40,8 +40,8 @@ is further capped by the world image's own detail.
 
 The second term comes from the probe's own error: the brute-force integral
 of the true BRDF over the probe against the same over a 256 px probe of the
-HDRI (a 48 px isolated sphere, every bundled HDRI, /tmp sweep recorded in
-the README). It falls under about 2% at faces of 96 (GGX 0.2, w_lobe 0.026
+HDRI (a 48 px isolated sphere, every bundled HDRI: benchmarks/probe_face.py).
+It falls under about 2% at faces of 96 (GGX 0.2, w_lobe 0.026
 rad; studio.exr 11.5 / 4.1 / 3.7 / 0.5% at 40 / 48 / 64 / 96), 48 (GGX 0.3,
 w 0.056; studio 5.2 / 2.0% at 40 / 48), 40-48 (GGX 0.45, w 0.139; interior
 2.5%, studio 1.4% at 40) and 32 (GGX 0.6, w 0.267; studio 12.0 / 2.9 / 0.7%

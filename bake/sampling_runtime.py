@@ -190,7 +190,7 @@ def mip_bias_for(ax, ay=None) -> float:
 
     Measured (19 samples, the probe lights taken as the bake takes them, 64^2-face
     probes, a 64^2-px sphere against the brute-force integral, root mean square
-    over the eight bundled HDRIs; /tmp sweep recorded in the README): the best
+    over the eight bundled HDRIs; a one-off sweep, its figures in the README): the best
     bias moves down as the lobe widens. GGX 0.2: 0.112 at biases -1 / -0.5 / 0
     alike; GGX 0.3: 0.036 / 0.033 / 0.033 at -0.5 / -0.25 / 0; GGX 0.45: 0.040 /
     0.036 / 0.034 / 0.043 at -1 / -0.75 / -0.5 / 0; GGX 0.6: 0.029 / 0.028 /

@@ -1,0 +1,73 @@
+"""How large a probe's cube faces must be before the probe stops limiting a lobe
+(bake.resolution.choose_probe_face's rule, PROBE_FACE_PER_ROOT_WIDTH).
+
+For every bundled HDRI and GGX roughness, the brute-force integral of the true
+BRDF (bake.reference.render) over a cube probe of each face size, on an isolated
+sphere's pixels (bake.reference.sphere_buffers), against the same integral over
+a 256 px probe of the HDRI (close to the 1024 x 512 images' own detail):
+relative RMS of luminance. Also printed: the face Auto chooses for the lobe.
+Lamps a texel or two wide (night, interior) alias differently at every size, so
+their curves do not fall steadily; bake.probe_lights carries those.
+
+    .venv/bin/python benchmarks/probe_face.py [--roughness 0.2,0.3,0.45,0.6]
+        [--faces 8,16,24,32,40,48,64,96,128] [--size 48] [--hdri studio ...]
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from bake import brdf, envmap, exr, lobes, reference, resolution  # noqa: E402
+from tools.bpy_wheel import studio_lights  # noqa: E402
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def auto_face(spec):
+    fit = lobes.fit(spec, slices=16)
+    narrowest = min(resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
+                    for s in fit.slices for lobe in s.lobes)
+    return resolution.choose_probe_face([narrowest], maximum=4096).value, narrowest
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--roughness", default="0.2,0.3,0.45,0.6")
+    parser.add_argument("--faces", default="8,16,24,32,40,48,64,96,128")
+    parser.add_argument("--size", type=int, default=48, help="sphere image size (px)")
+    parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    args = parser.parse_args()
+    faces = [int(f) for f in args.faces.split(",")]
+    hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
+    normals, views, mask = reference.sphere_buffers(args.size)
+    normals, views = normals[mask], views[mask]
+    for roughness in (float(r) for r in args.roughness.split(",")):
+        spec = f"ggx:roughness={roughness}"
+        face, width = auto_face(spec)
+        print(f"GGX {roughness}: narrowest half width {width:.4f} rad, Auto face {face}; "
+              f"relative RMS against a 256 px probe at faces {faces}", flush=True)
+        model = brdf.parse(spec)
+        for name in hdris:
+            start = time.perf_counter()
+            image = exr.read(studio_lights() / f"{name}.exr")[0][..., :3]
+
+            def render(size, image=image, model=model):
+                probe = envmap.convert(image, "latlong", "cube", size)
+                return reference.render(model, probe, "cube", normals, views) @ LUMINANCE
+
+            truth = render(256)
+            errors = [np.sqrt(np.mean((render(f) - truth) ** 2) / np.mean(truth ** 2))
+                      for f in faces]
+            print(f"  {name:10s} " + " ".join(f"{f}:{e:.3f}" for f, e in
+                                             zip(faces, errors, strict=True))
+                  + f"   ({time.perf_counter() - start:.0f} s)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
