@@ -71,7 +71,7 @@ from .envmap import get_layout
 from .errors import BakeError
 
 __all__ = ["Light", "extract", "extract_for", "extract_kept", "limits_for", "tile_growth",
-           "describe", "THRESHOLD", "THRESHOLDS", "RADIUS_TEXELS", "MAX_LIGHTS",
+           "describe", "THRESHOLD", "THRESHOLDS", "THRESHOLDS_ABOVE", "RADIUS_TEXELS", "MAX_LIGHTS",
            "TILE_FRACTION"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -88,14 +88,17 @@ ADJACENT_TEXELS = 1.5
 #: energy-weighted centre is wide: it stays in the probe.
 GROUP_RADIUS_TEXELS = 3.0
 #: Lights wider than this many times a GGX lobe's smallest alpha stay in the probe
-#: (or are tiled).
-SPREAD_PER_ALPHA = 1.5
+#: (or are tiled): max_spread_for.
+SPREAD_PER_ALPHA = 0.5
 #: Tiles of a wide region's brightest texels have a radius of this fraction of the
 #: lobe's alpha (limits_for); dimmer texels' tiles are wider (tile_growth).
 TILE_FRACTION = 0.25
 #: Thresholds (times the probe's mean luminance) tried from the highest; the
 #: lowest at which every bright region fits in MAX_LIGHTS is used (extract_for).
 THRESHOLDS = (20.0, 10.0, 5.0, 3.0, 2.0)
+#: Thresholds tried upward, the lowest that fits kept, when THRESHOLDS[0] does not
+#: fit (extract_for).
+THRESHOLDS_ABOVE = (40.0, 80.0, 160.0, 320.0, 640.0)
 #: Tiles of texels at least TILE_EXCESS times the threshold's luminance above it
 #: have the lobe's tile radius; dimmer ones up to TILE_GROWTH times it (tile_growth).
 TILE_EXCESS = 32.0
@@ -284,7 +287,15 @@ def max_spread_for(alpha):
     takes as a directional light: SPREAD_PER_ALPHA alpha. Wider, the light's own
     shape shows in the lobe and a widened point (bake.sampling_runtime's
     light_radiance) misplaces it; the probe's methods, which see its shape,
-    keep it, unless it is tiled."""
+    keep it, unless it is tiled. Half an alpha, because at n.v 0.2-0.4 the lobe
+    is about a third as wide in light space as at normal incidence: with 1.5
+    alphas, one of studio.exr's softbox corners (1.5 degrees RMS) stayed one
+    light at GGX 0.2 and a sphere's pixels at n.v 0.2-0.5 were 10% off the
+    brute-force integral there (the hybrid on the whole sphere, 64^2-face
+    probe: 0.093; tiled, 0.012; 104^2 faces: 0.092 -> 0.015). Measured on all
+    eight HDRIs (64^2 faces, bake.hybrid, root mean square): GGX 0.1 0.180 ->
+    0.160 (interior 0.238 -> 0.037), GGX 0.2 0.043 -> 0.028, unchanged from
+    GGX 0.3 up, where no compact region is that wide."""
     return SPREAD_PER_ALPHA * float(alpha)
 
 
@@ -329,9 +340,16 @@ def limits_for(ax, ay=None) -> dict:
 def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
     """:func:`extract` for a GGX lobe (:func:`limits_for`) at the lowest of THRESHOLDS
     at which every bright region is taken within ``max_lights``: the more of the
-    probe is shaded exactly, the less is left to the probe's methods; at
-    THRESHOLDS[0] when even that does not fit (then whole regions, the most
-    energetic first, as many as fit). Each light records its threshold."""
+    probe is shaded exactly, the less is left to the probe's methods. When even
+    THRESHOLDS[0] does not fit, the lowest of THRESHOLDS_ABOVE that does: the
+    bright cores are taken and the rest of those regions stays in the probe
+    (studio.exr at GGX 0.2 from 104 px faces, the hybrid of bake.hybrid on a
+    sphere against the brute-force integral: at 20x one softbox needed more
+    tiles than were left and stayed whole, up to 679x the mean, 0.131; at 40x,
+    the lowest that fits, 0.092; 0.015 at 80x with SPREAD_PER_ALPHA 0.5, where
+    its corner is tiled rather than one light); at THRESHOLDS_ABOVE[-1]
+    when nothing fits (then whole regions, the most energetic first, as many as
+    fit). Each light records its threshold."""
     limits = limits_for(ax, ay)
     chosen = None
     for threshold in THRESHOLDS:
@@ -341,7 +359,13 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
             break
         chosen = split
     if chosen is None:
-        chosen = extract(probe, layout, threshold=THRESHOLDS[0], max_lights=max_lights,
+        for threshold in THRESHOLDS_ABOVE:
+            chosen = extract(probe, layout, threshold=threshold, max_lights=max_lights,
+                             require_all=True, **limits)
+            if chosen is not None:
+                break
+    if chosen is None:
+        chosen = extract(probe, layout, threshold=THRESHOLDS_ABOVE[-1], max_lights=max_lights,
                          **limits)
     return chosen
 
@@ -354,7 +378,7 @@ def extract_kept(probe, layout="cube", ax=0.09, ay=None):
 
     key = (round(float(ax), 9), round(float(ax if ay is None else ay), 9))
     return probe_maps(probe, layout).kept(
-        ("probe lights", THRESHOLDS, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
+        ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
          GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH, key),
         lambda: extract_for(probe, layout, ax, ay))
 

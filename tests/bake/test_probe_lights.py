@@ -279,7 +279,10 @@ def test_the_threshold_is_lowered_while_every_bright_region_fits():
     half an alpha) the softbox and the brighter part of the sky fit at 2x the
     mean, and more of the probe is then shaded exactly; for GGX 0.3 (tiles of
     a quarter alpha) with room for a dozen lights only, the softbox does not
-    fit even at 20x and stays whole. Flux exact either way."""
+    fit even at 20x and stays whole. Flux exact either way. A bright core in
+    the softbox (1360x the mean) is then taken from the lowest of
+    THRESHOLDS_ABOVE at which it fits (40x: the softbox, 27x, stays), and the
+    residual nowhere exceeds that."""
     probe, mask = _softbox_probe()
     _, omega = _geometry()
     flux = np.einsum("hwc,hw->c", probe, omega)
@@ -295,6 +298,16 @@ def test_the_threshold_is_lowered_while_every_bright_region_fits():
     kept, none = probe_lights.extract_for(probe, "cube", 0.09, max_lights=12)
     assert none == []
     np.testing.assert_array_equal(kept, probe.astype(np.float32))
+    _plant(probe, (0.9, -0.3, 0.25), np.radians(3.0), (3000.0, 2900.0, 2800.0))
+    mean = float(np.sum((probe @ LUMINANCE) * omega) / (4 * np.pi))
+    residual, core = probe_lights.extract_for(probe, "cube", 0.09, max_lights=12)
+    assert core and {light.threshold for light in core} == {probe_lights.THRESHOLDS_ABOVE[0]}
+    assert (residual @ LUMINANCE).max() <= probe_lights.THRESHOLDS_ABOVE[0] * mean * (1 + 1e-5)
+    assert np.any(residual[mask] @ LUMINANCE > probe_lights.THRESHOLDS[0] * mean)
+    flux = np.einsum("hwc,hw->c", probe, omega)
+    after = np.einsum("hwc,hw->c", residual.astype(np.float64), omega) + sum(
+        light.irradiance for light in core)
+    np.testing.assert_allclose(after, flux, rtol=1e-5)
     assert probe_lights.limits_for(0.09)["tile_radius"] == pytest.approx(0.0225)
     # Tiles grow as (TILE_EXCESS / excess)^(1/4): 1 at 32x the threshold above it,
     # 2 at 2x, at most 4.
