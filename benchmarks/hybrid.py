@@ -1,8 +1,10 @@
 """The hybrid of the 3D map and regular sampling (bake.hybrid): measured errors and
 the hybrid's own, on every bundled HDRI.
 
-For each of Blender's bundled HDRIs (a 64^2-face cube probe) and isotropic GGX
-roughness 0.1, 0.2, 0.3, 0.45 and 0.6, a sphere (64^2 pixels) is rendered by the
+For each of Blender's bundled HDRIs and isotropic GGX roughness 0.1, 0.2, 0.3,
+0.45 and 0.6, from a cube probe of the face Auto captures for that roughness
+(bake.resolution.choose_probe_face: 200 / 104 / 72 / 48 / 32 px; ``--face N``
+for one size for all), a sphere (64^2 pixels) is rendered by the
 brute-force integral (bake.reference, the truth), by the 3D map at Auto size
 (bake.prefilter) and by regular sampling with 19, 61 and 127 samples as the
 Runtime Sampling nodes compute it (bake.sampling_runtime.shade, their NumPy
@@ -16,7 +18,7 @@ Then the hybrid against both methods alone, per budget, HDRI and roughness,
 with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
-    .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights]
+    .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|64]
 
 By default both methods see the probe without its small bright lights, which
 are shaded exactly (bake.probe_lights, Probe Lights on: the bake's default);
@@ -39,9 +41,11 @@ from bake import (  # noqa: E402
     brdf,
     exr,
     hybrid,
+    lobes,
     prefilter,
     probe_lights,
     reference,
+    resolution,
     sampling_runtime,
 )
 from bake.envmap import convert  # noqa: E402
@@ -73,14 +77,26 @@ def runtime_twin(cube, spec, budget, normals, views, lights=()):
     return sampling_runtime.shade(atlas, meta, normals, views)
 
 
-def renders(name, directory, size=64, face=64, with_lights=False):
-    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel.
+def auto_face(roughness):
+    """The probe face glossy.capture_probes' Auto gives a Hybrid material of isotropic
+    GGX ``roughness`` (operators.capture_probes: the narrowest of the 3D fit's
+    lobes and the sampled lobe)."""
+    spec = f"ggx:roughness={roughness}"
+    fit = lobes.fit(spec, slices=16)
+    widths = [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
+              for s in fit.slices for lobe in s.lobes]
+    widths.append(resolution.ggx_half_width(roughness ** 2))
+    return resolution.choose_probe_face(widths, maximum=4096).value
+
+
+def renders(name, directory, size=64, face="auto", with_lights=False):
+    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel,
+    each roughness from a probe of ``face`` px (or its :func:`auto_face`).
     ``with_lights``: as the bake does with Probe Lights on (bake.probe_lights): both
     methods see the residual probe and each estimate includes the lights' exact
     term (added outside the blend, as the nodes add it); the truth is the whole
     probe's."""
     image, _ = exr.read(directory / f"{name}.exr")
-    cube = convert(image[..., :3], "latlong", "cube", face)
     normals, views, mask = reference.sphere_buffers(size)
     normals, views = normals[mask], views[mask]
     mu = np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0)
@@ -88,6 +104,8 @@ def renders(name, directory, size=64, face=64, with_lights=False):
     for roughness in ROUGHNESS:
         spec = f"ggx:roughness={roughness}"
         model = brdf.parse(spec)
+        size_px = auto_face(roughness) if face == "auto" else int(face)
+        cube = convert(image[..., :3], "latlong", "cube", size_px)
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
         probe, lights, light_term = cube, (), 0.0
         if with_lights:
@@ -110,7 +128,7 @@ def binned_squares(mu, truth, estimate):
     return errors, scale
 
 
-def table_from(results, names, face=64):
+def table_from(results, names, face="auto"):
     """The pooled error and least-squares weight table over the HDRIs ``names``."""
     bins = len(EDGES) - 1
     map_error = np.zeros((len(ROUGHNESS), bins))
@@ -139,7 +157,9 @@ def table_from(results, names, face=64):
             regular_error[s, i] = np.sqrt(np.mean(relative, axis=0))
             weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
     return hybrid.ErrorTable(ROUGHNESS, EDGES, map_error, regular_error, weight,
-                             {"hdris": list(names), "probe_face": face, "sphere": 64,
+                             {"hdris": list(names), "sphere": 64,
+                              "probe_face": face if face != "auto" else
+                              {str(r): auto_face(r) for r in ROUGHNESS},
                               "brdf": "ggx (isotropic)"}, BUDGETS)
 
 
@@ -151,8 +171,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true",
                         help="store the pooled table as bake/hybrid_errors.json")
-    parser.add_argument("--face", type=int, default=64,
-                        help="probe face size (the committed table: 64)")
+    parser.add_argument("--face", default="auto",
+                        help="probe face size, or auto: each roughness at the face Auto "
+                             "captures for it (the committed table)")
     parser.add_argument("--no-lights", action="store_true",
                         help="the whole probe in both methods (Probe Lights off); the "
                              "default takes the probe's lights out as the bake does")

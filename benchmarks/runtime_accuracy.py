@@ -64,9 +64,10 @@ def main():
         truth = reference.render(model, probe, "cube", normals, views,
                                  tangents=tangents) @ LUMINANCE
         errors, counts, taken = [], [], None
+        height = 1 << (2 * args.face - 1).bit_length()  # a power of two >= 2 faces
         for budget in budgets:
             atlas, meta = sampling_runtime.pack(probe, args.spec, budget=budget,
-                                                height=2 * args.face)
+                                                height=height)
             for tap in taps:
                 estimate = sampling_runtime.shade(atlas, meta, normals, views, tangents,
                                                   taps=tap) @ LUMINANCE
@@ -79,7 +80,7 @@ def main():
                 residual, lights = probe_lights.extract_for(probe, "cube", lobe.mx,
                                                             lobe.my)
                 split, split_meta = sampling_runtime.pack(residual, args.spec, budget=budget,
-                                                          height=2 * args.face, lights=lights)
+                                                          height=height, lights=lights)
                 estimate = sampling_runtime.shade(split, split_meta, normals, views,
                                                   tangents) @ LUMINANCE
                 errors.append(float(np.sqrt(np.mean((estimate - truth) ** 2)
