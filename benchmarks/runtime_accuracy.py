@@ -4,7 +4,7 @@ probe grow, on every bundled HDRI.
 
 A sphere (bake.reference.sphere_buffers, --size pixels) with Blender's radial
 tangent about Z, a cube probe of --face pixels converted from the HDRI, the
-level stack at the probe's own detail (2 x face rows, as the bake's Auto);
+level stack at the probe's own detail (2 x face rows up to a power of two);
 relative RMS of luminance against bake.reference.render through the same
 probe (so the probe's resolution is not part of this error: it is the
 estimator's). Separates what more samples buy from what a finer probe buys.
@@ -55,7 +55,8 @@ def main():
     tangents = np.stack([-normals[:, 1], normals[:, 0], np.zeros(len(normals))], -1)
     names = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
     print(f"{args.spec}, {len(normals)} sphere pixels, {args.face}^2-face probe, level stack "
-          f"{2 * args.face} rows; relative RMS of luminance against brute force", flush=True)
+          f"{1 << (2 * args.face - 1).bit_length()} rows; relative RMS of luminance against "
+          f"brute force", flush=True)
     header = None
     for name in names:
         environment, _ = exr.read(studio_lights() / f"{name}.exr")
