@@ -2,16 +2,17 @@
 Hybrid is the default wherever it is better).
 
 Measured in EEVEE against Cycles on an isolated sphere in every bundled HDRI
-(benchmarks/runtime_validate.py, 19 samples, 64 px World Only probe; README,
-"Runtime sampling"): for isotropic GGX the Hybrid is below the 3D map on all
-eight HDRIs at roughness 0.3 (2.7-22.6% against 3.7-34.1%) and 0.6 (7.0-18.8%
-against 11.1-26.8%), and within 2 points of it at 0.1, where the probe's
-resolution limits both and the Hybrid's weights (bake.hybrid, measured per
-view elevation and roughness) leave the map almost alone; for a Principled
-BSDF at roughness 0.3 it is below the 3D map on all eight too, as a plastic
-(0.9-22.9% against 1.0-23.9%) and as a metal (2.7-23.0% against 3.8-35.1%).
-Its EEVEE frame measured 1.09x native's (benchmarks/sampling_eevee.py) and its
-shader compiles in under a second.
+(benchmarks/runtime_validate.py, 19 samples, each roughness at the Hybrid's
+Auto probe face, all three methods from that probe; README, "Stop 33"): for
+isotropic GGX 0.1 / 0.2 / 0.3 / 0.45 / 0.6 the Hybrid is below both the 3D
+map and Runtime Sampling in 29 of 40 cases, level with the better one to a
+tenth of a point in 10 and above Runtime by 0.1 point once; it is below the
+3D map in all 40 (1.1-10.7% against 3.6-52%). For a Principled BSDF at
+roughness 0.3 (64 px probe, an earlier stop) it was below the 3D map on all
+eight too, as a plastic (0.9-22.9% against 1.0-23.9%) and as a metal
+(2.7-23.0% against 3.8-35.1%). Its 1-sample EEVEE frame measured 0.91-1.02x
+native's (benchmarks/sampling_eevee.py; per sample 2.3-3.5x on software GL)
+and its shader compiles in under a second.
 
 The Hybrid's runtime part samples one GGX lobe and scales it by the
 material's colour at its bake-time value. So Auto keeps the 3D map where
