@@ -71,6 +71,7 @@ from .envmap import get_layout
 from .errors import BakeError
 
 __all__ = ["Light", "extract", "extract_for", "extract_kept", "limits_for", "tile_growth",
+           "max_spread_for", "compact_spread_for",
            "describe", "THRESHOLD", "THRESHOLDS", "THRESHOLDS_ABOVE", "RADIUS_TEXELS", "MAX_LIGHTS",
            "TILE_FRACTION"]
 
@@ -89,7 +90,12 @@ ADJACENT_TEXELS = 1.5
 GROUP_RADIUS_TEXELS = 3.0
 #: Lights wider than this many times a GGX lobe's smallest alpha stay in the probe
 #: (or are tiled): max_spread_for.
-SPREAD_PER_ALPHA = 0.5
+SPREAD_PER_ALPHA = 0.125
+#: ... unless the probe cannot resolve them: a light at most this many times one
+#: texel's own spread (sqrt(omega / 6) of the probe's largest texel) stays one
+#: light, up to SPREAD_CAP_PER_ALPHA alphas (compact_spread_for).
+UNRESOLVED_SPREADS = 2.0
+SPREAD_CAP_PER_ALPHA = 0.5
 #: Tiles of a wide region's brightest texels have a radius of this fraction of the
 #: lobe's alpha (limits_for); dimmer texels' tiles are wider (tile_growth).
 TILE_FRACTION = 0.25
@@ -287,16 +293,45 @@ def max_spread_for(alpha):
     takes as a directional light: SPREAD_PER_ALPHA alpha. Wider, the light's own
     shape shows in the lobe and a widened point (bake.sampling_runtime's
     light_radiance) misplaces it; the probe's methods, which see its shape,
-    keep it, unless it is tiled. Half an alpha, because at n.v 0.2-0.4 the lobe
-    is about a third as wide in light space as at normal incidence: with 1.5
-    alphas, one of studio.exr's softbox corners (1.5 degrees RMS) stayed one
-    light at GGX 0.2 and a sphere's pixels at n.v 0.2-0.5 were 10% off the
-    brute-force integral there (the hybrid on the whole sphere, 64^2-face
-    probe: 0.093; tiled, 0.012; 104^2 faces: 0.092 -> 0.015). Measured on all
-    eight HDRIs (64^2 faces, bake.hybrid, root mean square): GGX 0.1 0.180 ->
-    0.160 (interior 0.238 -> 0.037), GGX 0.2 0.043 -> 0.028, unchanged from
-    GGX 0.3 up, where no compact region is that wide."""
+    keep it, unless it is tiled. An eighth of an alpha, because at grazing
+    views the lobe is much narrower in light space than at normal incidence
+    (at n.v 0.2-0.4 about a third as wide) while a widened point keeps its
+    normal-incidence width.
+
+    Measured at the probe faces Auto captures (runtime sampling, 19 samples,
+    with the lights, a 64^2 px sphere against the brute-force integral over
+    the whole probe; a one-off sweep over the eight bundled HDRIs, figures in
+    the README): from 0.5 alpha to 0.25 alpha, studio.exr at GGX 0.3 (72 px
+    faces) went 0.030 -> 0.008 and interior.exr at GGX 0.2 (104 px) 0.089 ->
+    0.010; from 0.25 to 0.125, studio at GGX 0.45 (48 px) 0.078 -> 0.048; no
+    other HDRI at GGX 0.1 / 0.2 / 0.3 / 0.45 / 0.6 moved by more than 0.002.
+    The regions that stop being one light become tiles (studio at GGX 0.45: 22
+    -> 31 lights). Earlier, at 64 px faces for all: 1.5 -> 0.5 alpha took one
+    of studio's softbox corners (1.5 degrees RMS) off a single point at GGX
+    0.2 (0.093 -> 0.012 for the hybrid of bake.hybrid) and interior at GGX
+    0.1 from 0.238 to 0.037."""
     return SPREAD_PER_ALPHA * float(alpha)
+
+
+def compact_spread_for(alpha, largest_texel):
+    """The widest light (RMS radius, rad) taken as one directional light from a
+    probe whose largest texel has solid angle ``largest_texel`` (sr), for a GGX
+    lobe of smallest alpha ``alpha``: :func:`max_spread_for`, or, when larger,
+    UNRESOLVED_SPREADS times one texel's own spread (sqrt(omega / 6)) capped at
+    SPREAD_CAP_PER_ALPHA alphas. A lamp a texel or two wide has no shape the
+    probe resolves: as tiles (a texel each, once the tiles are smaller than a
+    texel) it keeps the texels' aliasing, as one light at its energy centroid
+    it keeps where the lamp is. Measured against the brute-force integral over
+    a 320 px probe of the same HDRI (closer to Cycles than the probe itself;
+    runtime sampling with the lights, 19 samples, a 64^2 px sphere, the Auto
+    faces): interior.exr at GGX 0.2 (104 px faces) 0.076 with an eighth of
+    alpha alone, 0.038 with the floor (12 of 72 lights compact); at GGX 0.1
+    (200 px) 0.083 -> 0.065; night.exr at GGX 0.1 0.140 with the cap, 0.224
+    without it (the floor, 2 texels, is 0.8 alpha there). In EEVEE against
+    Cycles, interior at GGX 0.2 measured 3.2% with half an alpha and 5.3%
+    with an eighth alone."""
+    floor = UNRESOLVED_SPREADS * math.sqrt(float(largest_texel) / 6.0)
+    return max(max_spread_for(alpha), min(SPREAD_CAP_PER_ALPHA * float(alpha), floor))
 
 
 def tile_growth(excess):
@@ -338,7 +373,8 @@ def limits_for(ax, ay=None) -> dict:
 
 
 def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
-    """:func:`extract` for a GGX lobe (:func:`limits_for`) at the lowest of THRESHOLDS
+    """:func:`extract` for a GGX lobe (:func:`limits_for`, its compact lights up to
+    :func:`compact_spread_for` this probe's texels) at the lowest of THRESHOLDS
     at which every bright region is taken within ``max_lights``: the more of the
     probe is shaded exactly, the less is left to the probe's methods. When even
     THRESHOLDS[0] does not fit, the lowest of THRESHOLDS_ABOVE that does: the
@@ -351,6 +387,8 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
     when nothing fits (then whole regions, the most energetic first, as many as
     fit). Each light records its threshold."""
     limits = limits_for(ax, ay)
+    largest = float(get_layout(layout).solid_angles(np.asarray(probe).shape[:2]).max())
+    limits["max_spread"] = compact_spread_for(min(ax, ax if ay is None else ay), largest)
     chosen = None
     for threshold in THRESHOLDS:
         split = extract(probe, layout, threshold=threshold, max_lights=max_lights,
@@ -379,7 +417,8 @@ def extract_kept(probe, layout="cube", ax=0.09, ay=None):
     key = (round(float(ax), 9), round(float(ax if ay is None else ay), 9))
     return probe_maps(probe, layout).kept(
         ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
-         GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH, key),
+         GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH, SPREAD_PER_ALPHA,
+         UNRESOLVED_SPREADS, SPREAD_CAP_PER_ALPHA, key),
         lambda: extract_for(probe, layout, ax, ay))
 
 

@@ -313,3 +313,36 @@ def test_the_threshold_is_lowered_while_every_bright_region_fits():
     # 2 at 2x, at most 4.
     np.testing.assert_allclose(probe_lights.tile_growth([100.0, 32.0, 2.0, 0.01]),
                                [1.0, 1.0, 2.0, 4.0])
+
+
+def test_a_lamp_the_probe_cannot_resolve_stays_one_light():
+    """A lamp planted a texel or so wide (104 px faces) and a patch 2.5 texels in
+    radius. For GGX 0.2 (alpha 0.04) an eighth of alpha (0.005 rad) is below one
+    texel's own spread (0.0078 rad), so only compact_spread_for's floor (two
+    texels' spread, under half an alpha) keeps the lamp one light at its energy
+    centre, within half a texel of where it was planted; the patch, wider than
+    that, is tiled. For GGX 0.1 (alpha 0.01) the cap, half an alpha, is below
+    the lamp's spread: the lamp is tiled too. Flux exact in both."""
+    face = 104
+    probe = _sky(face) * 0.05
+    lamp, patch = _unit((0.3, 0.8, 0.5)), _unit((-0.7, -0.2, 0.6))
+    texel = _texel_angle(face)
+    planted = _plant(probe, lamp, 0.7 * texel, (400.0, 380.0, 350.0))
+    _plant(probe, patch, 2.5 * texel, (60.0, 60.0, 60.0))
+    _, omega = _geometry(face)
+    flux = np.einsum("hwc,hw->c", probe, omega)
+    assert 1 <= planted.sum() <= 4
+    for alpha, lamp_lights in ((0.04, 1), (0.01, None)):
+        residual, lights = probe_lights.extract_for(probe, "cube", alpha)
+        after = np.einsum("hwc,hw->c", residual.astype(np.float64), omega) + sum(
+            light.irradiance for light in lights)
+        np.testing.assert_allclose(after, flux, rtol=1e-5)
+        near_lamp = [light for light in lights if light.direction @ lamp > np.cos(3 * texel)]
+        near_patch = [light for light in lights if light.direction @ patch > np.cos(6 * texel)]
+        assert len(near_patch) >= 4 and all(light.tile for light in near_patch)
+        if lamp_lights == 1:
+            assert len(near_lamp) == 1 and not near_lamp[0].tile
+            assert np.arccos(min(1.0, near_lamp[0].direction @ lamp)) < 0.5 * texel
+            assert probe_lights.max_spread_for(alpha) < near_lamp[0].spread
+        else:
+            assert len(near_lamp) > 1 and all(light.tile for light in near_lamp)
