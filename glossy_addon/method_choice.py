@@ -5,8 +5,8 @@ Measured in EEVEE against Cycles on an isolated sphere in every bundled HDRI
 (benchmarks/runtime_validate.py, 19 samples, each roughness at the Hybrid's
 Auto probe face, all three methods from that probe; README, "Stop 33"): for
 isotropic GGX 0.1 / 0.2 / 0.3 / 0.45 / 0.6 the Hybrid is below both the 3D
-map and Runtime Sampling in 29 of 40 cases, level with the better one to a
-tenth of a point in 10 and above Runtime by 0.1 point once; it is below the
+map and Runtime Sampling in 30 of 40 cases, level with the better one to a
+tenth of a point in 9 and above Runtime by 0.1 point once; it is below the
 3D map in all 40 (1.1-10.7% against 3.6-52%). For a Principled BSDF at
 roughness 0.3 (64 px probe, an earlier stop) it was below the 3D map on all
 eight too, as a plastic (0.9-22.9% against 1.0-23.9%) and as a metal
