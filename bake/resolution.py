@@ -36,7 +36,11 @@ The probe face a lobe needs (:func:`choose_probe_face`): the larger of the
 face whose half texel is no wider than the lobe (then the lobe, not the
 probe, sets the map) and PROBE_FACE_PER_ROOT_WIDTH / sqrt(w_lobe), the face
 at which the probe itself stops limiting the reflection; a world-only probe
-is further capped by the world image's own detail.
+is further capped by the world image's own detail. Where the world has lamps
+only a few of its texels wide, the lobe rule's face is not enough:
+bake.probe_detail measures the probe's error on the world image itself and
+raises the face until it is under 2% (glossy.capture_probes does this for
+Auto faces whenever the world has an environment image).
 
 The second term comes from the probe's own error: the brute-force integral
 of the true BRDF over the probe against the same over a 256 px probe of the
@@ -64,7 +68,8 @@ __all__ = ["TEXELS_PER_HALF_WIDTH", "MIN_ROWS", "PROBE_FACE_PER_ROOT_WIDTH", "lo
            "ggx_half_width",
            "effective_half_width",
            "latlong_detail_rows",
-           "rows_for_half_width", "Choice", "choose_map_rows", "choose_probe_face"]
+           "rows_for_half_width", "Choice", "choose_map_rows", "world_detail_face",
+           "choose_probe_face"]
 
 TEXELS_PER_HALF_WIDTH = 4.0
 MIN_ROWS = 16
@@ -171,6 +176,12 @@ def choose_map_rows(half_widths, probe_shape, probe_layout, maximum=None, layers
     return Choice(rows, reason, limited_by)
 
 
+def world_detail_face(world_rows) -> int:
+    """The cube face (px, a multiple of 8) whose texels match a lat-long world image of
+    ``world_rows`` rows at the face centre (2 rows / pi): finer faces only interpolate it."""
+    return max(8, int(math.ceil(2.0 * int(world_rows) / math.pi / 8.0)) * 8)
+
+
 def choose_probe_face(half_widths, maximum, world_rows=None) -> Choice:
     """Auto cube face size of a probe for lobes of these widths (rad).
 
@@ -192,7 +203,7 @@ def choose_probe_face(half_widths, maximum, world_rows=None) -> Choice:
         face, reason = 8, "8 px faces: no Glossy lobe needs more"
     limited_by = "lobe"
     if world_rows is not None:
-        world_face = max(8, int(math.ceil(2.0 * world_rows / math.pi / 8.0)) * 8)
+        world_face = world_detail_face(world_rows)
         if face > world_face:
             face, limited_by = world_face, "world"
             reason = (f"{face} px faces: the world image's own detail ({world_rows} rows); "

@@ -6,7 +6,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr, lobes, resolution, sampling_runtime
+from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime
 from ..bake.errors import BakeError
 from ..glossy_addon import ownership
 from ..glossy_addon.capture import CubeCapture
@@ -53,7 +53,10 @@ def _lobe_widths(obj):
 
 
 def _face_size(context, obj):
-    """(face size, reason) of the object's probe: Fixed, or Auto from its lobes."""
+    """(face size, reason, detail) of the object's probe: Fixed, or Auto from its lobes.
+
+    detail: (narrowest lobe width in rad, largest face) when Auto must also measure
+    the world image's own detail (:func:`_world_detail_face`), else None."""
     settings = obj.glossy
     size = settings.probe_resolution
     if not MIN_RESOLUTION <= size <= MAX_RESOLUTION:
@@ -62,12 +65,45 @@ def _face_size(context, obj):
         raise BakeError(f"{obj.name}: {kind} must be between {MIN_RESOLUTION} "
                         f"and {MAX_RESOLUTION}, not {size}")
     if settings.probe_size_mode == "FIXED":
-        return size, f"{size} px faces: set by hand"
+        return size, f"{size} px faces: set by hand", None
+    image = find_environment_image(context.scene.world)
     world_rows = None
     if settings.probe_source == "WORLD":
-        world_rows = int(find_environment_image(context.scene.world).size[1])
-    choice = resolution.choose_probe_face(_lobe_widths(obj), size, world_rows)
-    return max(MIN_RESOLUTION, choice.value), choice.reason
+        world_rows = int(image.size[1])
+    widths = _lobe_widths(obj)
+    choice = resolution.choose_probe_face(widths, size, world_rows)
+    face = max(MIN_RESOLUTION, choice.value)
+    detail = None
+    if widths and image is not None and choice.limited_by == "lobe" and \
+            int(image.size[0]) == 2 * int(image.size[1]) and \
+            min(widths) < 0.5 * np.pi:  # a lat-long world whose lamps the lobe may resolve
+        cap = min(size, resolution.world_detail_face(int(image.size[1])))
+        if cap > face:
+            detail = (float(min(widths)), int(cap))
+    return face, choice.reason, detail
+
+
+def _world_detail_face(context, face, reason, detail, cache, progress=None):
+    """(face, reason) once the world image's own detail is measured (bake.probe_detail):
+    the lobe rule's ``face``, or the first larger one at which the probe adds at most
+    probe_detail.TOLERANCE to the lobe-filtered world. ``cache``: a dict shared by the
+    objects of one capture (same lobes, same world: measured once)."""
+    width, cap = detail
+    image = find_environment_image(context.scene.world)
+    key = (image.name, round(width, 7), face, cap)
+    if key not in cache:
+        cache[key] = probe_detail.choose_world_face(image_pixels(image), width, face, cap,
+                                                    progress)
+    chosen, error, tried = cache[key]
+    first = tried[0][1]
+    if chosen == face:
+        return face, f"{reason}; the world image's detail adds {first:.1%} there"
+    if error <= probe_detail.TOLERANCE:
+        return chosen, (f"{chosen} px faces: the world image's small lights need them (the "
+                        f"probe adds {error:.1%} there, {first:.1%} at the lobe's {face} px)")
+    return chosen, (f"{chosen} px faces: the most the world image's detail or Max Probe "
+                    f"Resolution allows (the probe adds {error:.1%} there, {first:.1%} at the "
+                    f"lobe's {face} px)")
 
 
 class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
@@ -93,6 +129,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         The face size and its reason per object go to ``self._faces_chosen``."""
         depsgraph = context.evaluated_depsgraph_get()
         self._faces_chosen = {}
+        self._details = {}
+        self._detail_cache = {}
         plan = []
         for obj in _targets(context):
             settings = obj.glossy
@@ -102,11 +140,21 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                     find_environment_image(context.scene.world) is None:
                 raise BakeError(f"{obj.name}: 'World Only' needs an Environment Texture image "
                                 "in the world")
-            face, reason = _face_size(context, obj)
+            face, reason, detail = _face_size(context, obj)
             centre, used = probe_centre(obj, settings.centre_mode, depsgraph)
             plan.append((obj.name, centre, used))
             self._faces_chosen[obj.name] = (face, reason)
+            if detail is not None:
+                self._details[obj.name] = detail
         return plan
+
+    def _measure_detail(self, context, name, progress=None):
+        """Settle an Auto face on the world image's own detail (once per object)."""
+        detail = self._details.pop(name, None)
+        if detail is not None:
+            face, reason = self._faces_chosen[name]
+            self._faces_chosen[name] = _world_detail_face(context, face, reason, detail,
+                                                          self._detail_cache, progress)
 
     def _claim_paths(self, folder, plan):
         """Each planned object's probe file, claimed before anything is rendered:
@@ -160,6 +208,11 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 for index, (name, centre, used) in enumerate(plan):
                     obj = bpy.data.objects[name]
                     obj.glossy.probe_centre = tuple(float(c) for c in centre)
+
+                    def measured(fraction, message, index=index, name=name):
+                        progress(index / len(plan), f"{name}: {message}")
+
+                    self._measure_detail(context, name, measured)
                     if obj.glossy.probe_source == "WORLD":
                         result = self._world_cube(context, self._faces_chosen[name][0])
                     else:
@@ -188,12 +241,17 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         steps = []
         for index, (name, _, _) in enumerate(self._plan_items):
             world = bpy.data.objects[name].glossy.probe_source == "WORLD"
+            if name in self._details:
+                steps.append((index, "detail"))
             steps += [(index, None)] if world else [(index, face) for face in range(6)]
         return steps
 
     def _run_step(self, context, step):
         index, face = step
         name, centre, used = self._plan_items[index]
+        if face == "detail":
+            self._measure_detail(context, name)
+            return f"{name}: {self._faces_chosen[name][0]} px faces for the world's detail"
         obj = bpy.data.objects[name]
         obj.glossy.probe_centre = tuple(float(c) for c in centre)
         if face is None:

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from bake import exr, lobes, probe_detail, resolution
 from tests.blender.conftest import run_script
 from tests.conftest import ROOT
 
@@ -31,11 +32,22 @@ def test_probe_at_volume_centroid_equals_camera_renders(tmp_path, hdri_dir):
     assert "probe resolution must be between 8 and 4096, not 0" in result["resolution_zero"]
     assert result["poll_without_mesh"] is False
     # Auto: GGX 0.1's lobe is 0.0066 rad wide at its narrowest (grazing) slice, so the
-    # face is the multiple of 8 at or above max(1 / 0.0066, 16 / sqrt(0.0066)) = 197:
-    # 200 (forest.exr's 512 rows would allow up to 328); a Max Probe Resolution of 64
-    # caps it and says so.
-    assert result["auto_shape"] == [200, 6 * 200, 3]
-    assert result["auto_reason"].startswith("200 px faces: where the probe stops limiting")
+    # lobe rule's face is the multiple of 8 at or above max(1 / 0.0066, 16 / sqrt(0.0066))
+    # = 197: 200. forest.exr's sun is a few of its texels wide, so Auto then measures the
+    # probe's error on the world image itself (bake.probe_detail, up to the 328 px its
+    # 512 rows allow) and takes the first face of the ladder under 2%, computed here
+    # from the file the world loads. A Max Probe Resolution of 64 caps the lobe rule's
+    # face and says so (nothing is measured there).
+    world = exr.read(hdri_dir / "forest.exr")[0][..., :3]
+    fit = lobes.fit("ggx:roughness=0.1", slices=16)  # what the capture fits (cached there)
+    width = min([resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
+                 for s in fit.slices for lobe in s.lobes] + [resolution.ggx_half_width(0.01)])
+    assert width == pytest.approx(0.0066, abs=1e-4)
+    face, error, tried = probe_detail.choose_world_face(world, width, 200, 328)
+    assert [f for f, _ in tried][:2] == [200, 256] and face > 200
+    assert result["auto_shape"] == [face, 6 * face, 3]
+    assert result["auto_reason"].startswith(f"{face} px faces: the world image's small lights")
+    assert f"{error:.1%} there, {tried[0][1]:.1%} at the lobe's 200 px" in result["auto_reason"]
     assert result["auto_meta_reason"] == result["auto_reason"]
     assert result["auto_capped_shape"] == [64, 6 * 64, 3]
     assert "limited by Max Probe Resolution (Auto wanted 200)" in result["auto_capped_reason"]

@@ -1,0 +1,190 @@
+"""How fine a world-image probe must be for a lobe: measured on the world itself.
+
+bake.resolution.choose_probe_face sizes a probe from the lobe alone (the
+probe's own error under about 2% on studio.exr's softboxes). Lamps only a
+few of the world image's texels wide break that rule: each probe texel
+spreads a lamp over its whole area and the bilinear lookup over two texels,
+so a lobe a few texels wide sees the lamp moved and smeared, differently at
+every face size (aliasing). Measured against Cycles in EEVEE
+(benchmarks/runtime_validate.py, README "Stop 33"): interior.exr and
+night.exr at GGX 0.3 are 8.4% / 6.7% off from the 72 px face the lobe rule
+gives and 3.6% / 4.4% from a 160 px one.
+
+:func:`probe_error` measures that error for one world image, face size and
+lobe: the world filtered by the lobe from a cube probe of that face (as the
+capture makes it, then read back as the bake reads it) against the world
+filtered by the same lobe at its own detail, both as lat-long maps of R rows
+(R = the rows the lobe is filtered at, at most the world's rows and
+MAX_REFERENCE_ROWS): the relative RMS of luminance, each texel weighted by
+its solid angle. The lobe is GGX's reflection lobe at normal incidence with
+the given width (bake.resolution.lobe_half_width), its heavy tail included.
+
+:func:`choose_world_face` walks a ladder of faces, from the lobe rule's face
+up by FACE_STEP, and keeps the first whose error is at most TOLERANCE, capped
+by the world's own detail and the user's maximum. On the bundled HDRIs this
+keeps the lobe rule's face where the world is smooth (city, forest, studio,
+sunrise, sunset) and raises it where lamps are small (interior, night):
+benchmarks/probe_face.py --world prints the choices and errors.
+"""
+
+import math
+
+import numpy as np
+
+from .envmap import convert
+from .errors import BakeError
+from .probe_maps import ProbeMaps
+
+__all__ = ["TOLERANCE", "FACE_STEP", "MAX_REFERENCE_ROWS", "ggx_kernel_profile",
+           "probe_error", "choose_world_face"]
+
+#: The largest relative RMS error (luminance) a probe may add to the lobe-filtered world.
+TOLERANCE = 0.02
+#: Ratio between successive faces tried (rounded up to multiples of 8).
+FACE_STEP = 1.25
+#: Rows of the lat-long maps compared, at most (a 512-row map resolves faces up to
+#: about 256 px: finer probes are compared at the world's own detail cap).
+MAX_REFERENCE_ROWS = 512
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def ggx_kernel_profile(half_width, gamma):
+    """GGX's reflection lobe at normal incidence whose width (bake.resolution.lobe_half_width)
+    is ``half_width`` rad, tabulated at angles ``gamma`` (G,) rad from its axis: (G,) 1/sr,
+    unit integral over the sphere. It is the density of the reflected direction
+    when the half vector follows D(h) (h.n): D(gamma / 2) / 4 (the reflection's
+    Jacobian 1 / (4 h.n) cancels h.n), cut at the horizon (gamma = pi / 2), with
+    alpha = sqrt(3) tan(half_width / 2) (resolution.ggx_half_width inverted)."""
+    if not 0 < half_width < math.pi / 2:
+        raise BakeError(f"a lobe width must be in (0, pi/2) rad, not {half_width!r}")
+    alpha = math.sqrt(3.0) * math.tan(0.5 * half_width)
+
+    def density(angles):
+        theta = 0.5 * np.asarray(angles, dtype=np.float64)
+        d = alpha**2 / (math.pi * np.cos(theta) ** 4 * (alpha**2 + np.tan(theta) ** 2) ** 2)
+        return np.where(angles <= 0.5 * math.pi, 0.25 * d, 0.0)
+
+    # Normalize on a fine grid (2 pi int p sin g dg = 1): the tabulated nodes may be coarse.
+    fine = np.linspace(0.0, 0.5 * math.pi, 20001)
+    values = density(fine) * np.sin(fine)
+    total = 2.0 * math.pi * float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(fine)))
+    return density(np.asarray(gamma, dtype=np.float64)) / total
+
+
+def _filtered(maps, kernel, rows, half):
+    from .prefilter import _filter
+
+    return _filter(maps, kernel, rows, half)
+
+
+def _reference_rows(world_rows):
+    """The world's rows halved until at most MAX_REFERENCE_ROWS: a level of its exact
+    2 x 2 box pyramid, so the reference map is the world's own texels (no resampling,
+    which would alias lamps a texel wide), and a probe's bilinear reconstruction is
+    read at about its own detail or finer."""
+    rows = int(world_rows)
+    while rows > MAX_REFERENCE_ROWS and rows % 2 == 0:
+        rows //= 2
+    return rows
+
+
+#: Sub-samples per texel side of the lat-long working maps compared. The bake's
+#: ProbeMaps use 2 x 2 where the source is at most 4x finer, which moves and
+#: scales lamps a texel wide by up to about 10% in the lobe-filtered map
+#: (night.exr, GGX 0.3: 8% apart at a 328 px face); four sub-samples per source
+#: texel side (at most SAMPLES) bring that to about 1%.
+SAMPLES = 8
+
+
+class _ExactMaps(ProbeMaps):
+    """ProbeMaps whose conversions take 4 sub-samples per source texel side (at most
+    SAMPLES per target texel side; one, the bilinear reconstruction, where the
+    source has at most a quarter of the target's texels)."""
+
+    def convert(self, layout, size):
+        from .envmap import get_layout
+
+        source, target = get_layout(self.layout), get_layout(layout)
+        needed = target.covered_texels(target.shape(size))
+        chosen = self.levels[0]
+        for level in self.levels:
+            if source.covered_texels(level.shape[:2]) >= needed:
+                chosen = level
+        ratio = source.covered_texels(chosen.shape[:2]) / needed
+        # Reading a much coarser source, one bilinear tap per texel is its reconstruction.
+        samples = 1 if ratio <= 0.25 else min(SAMPLES, math.ceil(4.0 * math.sqrt(ratio)))
+        return convert(chosen, self.layout, layout, size, samples=samples)
+
+
+class WorldDetail:
+    """The lobe-filtered world at its own detail, to compare probes of it with.
+
+    world: (H, 2H, 3) float32 lat-long image (row 0 at the zenith); half_width:
+    the narrowest lobe's width (rad)."""
+
+    def __init__(self, world, half_width):
+        from . import lobes
+        from .prefilter import _profile_kernel
+
+        world = np.asarray(world, dtype=np.float32)
+        if world.ndim != 3 or world.shape[1] != 2 * world.shape[0] or world.shape[2] < 3:
+            raise BakeError(f"a world image must be (H, 2H, 3) lat-long, not {world.shape}")
+        self.world = world[..., :3]
+        self.half_width = float(half_width)
+        self.kernel = _profile_kernel(ggx_kernel_profile(self.half_width, lobes.GAMMA))
+        self.rows = _reference_rows(world.shape[0])
+        truth = _filtered(_ExactMaps(self.world, "latlong"), self.kernel, self.rows,
+                          self.half_width)
+        self.truth = truth @ LUMINANCE
+        latitude = (np.arange(self.rows) + 0.5) / self.rows * math.pi
+        self.weights = np.sin(latitude)[:, None] * np.ones((1, 2 * self.rows))
+
+    def error(self, face, cube=None):
+        """Relative RMS (luminance, solid-angle weighted) of the lobe-filtered world from a
+        cube probe of ``face`` px (``cube``: that probe, (face, 6 face, 3); else made from
+        the world as World Only capture makes it)."""
+        if cube is None:
+            cube = convert(self.world, "latlong", "cube", int(face))
+        seen = _filtered(_ExactMaps(cube, "cube"), self.kernel, self.rows, self.half_width)
+        diff = seen @ LUMINANCE - self.truth
+        return float(np.sqrt(np.sum(self.weights * diff**2)
+                             / max(np.sum(self.weights * self.truth**2), 1e-30)))
+
+
+def probe_error(world, face, half_width):
+    """:meth:`WorldDetail.error` for one world (H, 2H, 3), face (px) and lobe width (rad)."""
+    return WorldDetail(world, half_width).error(face)
+
+
+def face_ladder(start, cap):
+    """Faces tried from ``start`` up: each FACE_STEP times the last, multiples of 8,
+    ending at ``cap`` (included)."""
+    start, cap = int(start), int(cap)
+    faces = []
+    face = start
+    while face < cap:
+        faces.append(face)
+        face = max(face + 8, int(math.ceil(face * FACE_STEP / 8.0)) * 8)
+    faces.append(cap)
+    return faces
+
+
+def choose_world_face(world, half_width, lobe_face, cap, progress=None):
+    """(face, error, tried) for a world-image probe: the first face of
+    :func:`face_ladder` (lobe_face .. cap) whose :meth:`WorldDetail.error` is at
+    most TOLERANCE, else ``cap``. ``tried``: [(face, error)] in order.
+    progress(fraction, message) is called after each face."""
+    lobe_face, cap = int(lobe_face), int(cap)
+    if cap <= lobe_face:
+        return cap, None, []
+    detail = WorldDetail(world, half_width)
+    tried = []
+    ladder = face_ladder(lobe_face, cap)
+    for index, face in enumerate(ladder):
+        error = detail.error(face)
+        tried.append((face, error))
+        if progress is not None:
+            progress((index + 1) / len(ladder), f"probe error {error:.1%} at {face} px")
+        if error <= TOLERANCE:
+            return face, error, tried
+    return cap, tried[-1][1], tried

@@ -1,0 +1,81 @@
+"""bake.probe_detail: how fine a world-image probe must be, measured on the world itself."""
+
+import math
+
+import numpy as np
+import pytest
+
+from bake import lobes, probe_detail, resolution
+from bake.errors import BakeError
+
+
+@pytest.mark.parametrize("width", [0.01, 0.0558, 0.3])
+def test_the_lobe_is_ggx_reflected_at_normal_incidence(width):
+    """The half vector of D(h) (h.n) holds t^2 / (alpha^2 + t^2) of the energy within
+    slope t = tan(gamma / 2) (closed form); cut at the horizon (t = 1) the lobe's
+    share within gamma is that over 1 / (1 + alpha^2). Unit integral; its
+    resolution.lobe_half_width (25% of the cut lobe's energy) is where that share
+    is 1/4: t = alpha sqrt(1 / (3 + 4 alpha^2)), the width asked for when narrow."""
+    alpha = math.sqrt(3.0) * math.tan(0.5 * width)
+    gamma = np.linspace(0.0, math.pi, 400001)
+    profile = probe_detail.ggx_kernel_profile(width, gamma)
+    density = 2.0 * math.pi * profile * np.sin(gamma)
+    cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1])
+                                                  * np.diff(gamma))])
+    assert cumulative[-1] == pytest.approx(1.0, abs=1e-4)
+    for angle in (0.5 * width, width, 3.0 * width, 1.0):
+        t2 = math.tan(0.5 * angle) ** 2
+        expected = t2 / (alpha**2 + t2) * (1.0 + alpha**2)
+        assert np.interp(angle, gamma, cumulative) == pytest.approx(expected, rel=2e-3)
+    nodes = probe_detail.ggx_kernel_profile(width, lobes.GAMMA)
+    quarter = 2.0 * math.atan(alpha * math.sqrt(1.0 / (3.0 + 4.0 * alpha**2)))
+    assert resolution.lobe_half_width(lobes.GAMMA, nodes) == pytest.approx(quarter, rel=0.01)
+    assert quarter == pytest.approx(width, rel=0.05)
+    with pytest.raises(BakeError, match="lobe width"):
+        probe_detail.ggx_kernel_profile(2.0, gamma)
+
+
+def _world(rows, lamp=None):
+    """(rows, 2 rows, 3) lat-long sky: 1 + z/2 (smooth), plus ``lamp`` (radiance) in the
+    texel at elevation 40 deg, longitude 0.3 rad."""
+    theta = (np.arange(rows) + 0.5) / rows * math.pi
+    world = np.repeat((1.0 + 0.5 * np.cos(theta))[:, None, None], 2 * rows, axis=1)
+    world = np.repeat(world, 3, axis=2).astype(np.float32)
+    if lamp:
+        world[int(rows * 50 / 180), int(2 * rows * 0.3 / (2 * math.pi))] = lamp
+    return world
+
+
+def test_a_constant_world_gives_a_constant_probe():
+    """Any probe of a constant world is that constant: no error at any face."""
+    world = np.full((128, 256, 3), 2.5, np.float32)
+    detail = probe_detail.WorldDetail(world, 0.0558)
+    for face in (16, 40, 72):
+        assert detail.error(face) < 1e-4
+
+
+def test_a_one_texel_lamp_raises_the_face_a_smooth_sky_does_not():
+    """GGX 0.3's lobe (width 0.0558 rad) with the lobe rule's 72 px face
+    (resolution.choose_probe_face): a smooth sky needs no more; a lamp one world
+    texel wide (2e4 against a sky of 1-1.5) is moved and smeared by 72 px texels
+    (3.1% here, above the tolerance; 0.7% for a lamp of 2e3), and the face
+    chosen brings it within probe_detail.TOLERANCE, at most the world's own
+    detail (168 px faces for 256 rows)."""
+    width, lobe_face = 0.0558, 72
+    assert resolution.choose_probe_face([width], 4096).value == lobe_face
+    cap = resolution.world_detail_face(256)
+    assert cap == 168
+    face, error, tried = probe_detail.choose_world_face(_world(256), width, lobe_face, cap)
+    assert face == lobe_face and error < 0.25 * probe_detail.TOLERANCE and len(tried) == 1
+    face, error, tried = probe_detail.choose_world_face(_world(256, 2e4), width, lobe_face, cap)
+    assert tried[0][1] > 1.25 * probe_detail.TOLERANCE
+    assert lobe_face < face <= cap
+    assert error <= probe_detail.TOLERANCE
+    assert [f for f, _ in tried] == probe_detail.face_ladder(lobe_face, cap)[:len(tried)]
+    assert all(e > probe_detail.TOLERANCE for _, e in tried[:-1])
+
+
+def test_the_face_ladder_steps_by_a_quarter_in_multiples_of_8():
+    assert probe_detail.face_ladder(72, 168) == [72, 96, 120, 152, 168]
+    assert probe_detail.face_ladder(8, 16) == [8, 16]
+    assert probe_detail.choose_world_face(_world(64), 0.05, 72, 72)[0] == 72
