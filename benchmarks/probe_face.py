@@ -11,6 +11,11 @@ their curves do not fall steadily; bake.probe_lights carries those.
 
     .venv/bin/python benchmarks/probe_face.py [--roughness 0.2,0.3,0.45,0.6]
         [--faces 8,16,24,32,40,48,64,96,128] [--size 48] [--hdri studio ...]
+
+``--world``: instead, what glossy.capture_probes' Auto does for a Hybrid GGX
+material in each world: the lobe rule's face, then bake.probe_detail's ladder
+of faces with the probe's error on the world image at each, up to the world's
+own detail, and the face chosen.
 """
 
 import argparse
@@ -23,7 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bake import brdf, envmap, exr, lobes, reference, resolution  # noqa: E402
+from bake import brdf, envmap, exr, lobes, probe_detail, reference, resolution  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -36,15 +41,41 @@ def auto_face(spec):
     return resolution.choose_probe_face([narrowest], maximum=4096).value, narrowest
 
 
+def world_faces(roughnesses, hdris):
+    """Print bake.probe_detail's choice per roughness and HDRI (the capture's Auto)."""
+    for roughness in roughnesses:
+        fit = lobes.fit(f"ggx:roughness={roughness}", slices=16)
+        widths = [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
+                  for s in fit.slices for lobe in s.lobes]
+        widths.append(resolution.ggx_half_width(roughness**2))  # the sampled lobe
+        width = min(widths)
+        lobe_face = resolution.choose_probe_face(widths, maximum=4096).value
+        print(f"GGX {roughness}: narrowest width {width:.4f} rad, lobe rule {lobe_face} px; "
+              f"probe error on the world image per face (tolerance "
+              f"{probe_detail.TOLERANCE:.0%}) -> face chosen", flush=True)
+        for name in hdris:
+            start = time.perf_counter()
+            world = exr.read(studio_lights() / f"{name}.exr")[0][..., :3]
+            cap = resolution.world_detail_face(world.shape[0])
+            face, _, tried = probe_detail.choose_world_face(world, width, lobe_face,
+                                                            max(cap, lobe_face))
+            print(f"  {name:10s} " + " ".join(f"{f}:{e:.3f}" for f, e in tried)
+                  + f"  -> {face}   ({time.perf_counter() - start:.1f} s)", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--roughness", default="0.2,0.3,0.45,0.6")
     parser.add_argument("--faces", default="8,16,24,32,40,48,64,96,128")
     parser.add_argument("--size", type=int, default=48, help="sphere image size (px)")
     parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    parser.add_argument("--world", action="store_true",
+                        help="print the world-detail choice (bake.probe_detail) instead")
     args = parser.parse_args()
     faces = [int(f) for f in args.faces.split(",")]
     hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
+    if args.world:
+        return world_faces([float(r) for r in args.roughness.split(",")], hdris)
     normals, views, mask = reference.sphere_buffers(args.size)
     normals, views = normals[mask], views[mask]
     for roughness in (float(r) for r in args.roughness.split(",")):

@@ -83,17 +83,18 @@ def _face_size(context, obj):
     return face, choice.reason, detail
 
 
-def _world_detail_face(context, face, reason, detail, cache, progress=None):
-    """(face, reason) once the world image's own detail is measured (bake.probe_detail):
-    the lobe rule's ``face``, or the first larger one at which the probe adds at most
-    probe_detail.TOLERANCE to the lobe-filtered world. ``cache``: a dict shared by the
-    objects of one capture (same lobes, same world: measured once)."""
+def _world_detail_steps(context, face, reason, detail, cache):
+    """Generator of (fraction, message) that returns (face, reason) once the world
+    image's own detail is measured (bake.probe_detail): the lobe rule's ``face``,
+    or the first larger one at which the probe adds at most probe_detail.TOLERANCE
+    to the lobe-filtered world. ``cache``: a dict shared by the objects of one
+    capture (same lobes, same world: measured once)."""
     width, cap = detail
     image = find_environment_image(context.scene.world)
     key = (image.name, round(width, 7), face, cap)
     if key not in cache:
-        cache[key] = probe_detail.choose_world_face(image_pixels(image), width, face, cap,
-                                                    progress)
+        cache[key] = yield from probe_detail.world_face_steps(image_pixels(image), width,
+                                                              face, cap)
     chosen, error, tried = cache[key]
     first = tried[0][1]
     if chosen == face:
@@ -148,13 +149,15 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 self._details[obj.name] = detail
         return plan
 
-    def _measure_detail(self, context, name, progress=None):
-        """Settle an Auto face on the world image's own detail (once per object)."""
+    def _measure_detail(self, context, name):
+        """Generator: settle an Auto face on the world image's own detail (once per
+        object); yields (fraction, message) as it measures."""
         detail = self._details.pop(name, None)
         if detail is not None:
             face, reason = self._faces_chosen[name]
-            self._faces_chosen[name] = _world_detail_face(context, face, reason, detail,
-                                                          self._detail_cache, progress)
+            steps = _world_detail_steps(context, face, reason, detail, self._detail_cache)
+            self._faces_chosen[name] = yield from steps
+        return f"{name}: {self._faces_chosen[name][0]} px faces"
 
     def _claim_paths(self, folder, plan):
         """Each planned object's probe file, claimed before anything is rendered:
@@ -208,11 +211,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 for index, (name, centre, used) in enumerate(plan):
                     obj = bpy.data.objects[name]
                     obj.glossy.probe_centre = tuple(float(c) for c in centre)
-
-                    def measured(fraction, message, index=index, name=name):
+                    for _, message in self._measure_detail(context, name):
                         progress(index / len(plan), f"{name}: {message}")
-
-                    self._measure_detail(context, name, measured)
                     if obj.glossy.probe_source == "WORLD":
                         result = self._world_cube(context, self._faces_chosen[name][0])
                     else:
@@ -250,8 +250,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         index, face = step
         name, centre, used = self._plan_items[index]
         if face == "detail":
-            self._measure_detail(context, name)
-            return f"{name}: {self._faces_chosen[name][0]} px faces for the world's detail"
+            return self._measure_detail(context, name)
         obj = bpy.data.objects[name]
         obj.glossy.probe_centre = tuple(float(c) for c in centre)
         if face is None:
