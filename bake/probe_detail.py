@@ -58,8 +58,8 @@ __all__ = ["TOLERANCE", "FACE_STEP", "MAX_REFERENCE_ROWS", "ggx_kernel_profile",
 TOLERANCE = 0.02
 #: Ratio between successive faces tried (rounded up to multiples of 8).
 FACE_STEP = 1.25
-#: Rows of the lat-long maps compared, at most (a 512-row map resolves faces up to
-#: about 256 px: finer probes are compared at the world's own detail cap).
+#: Rows of the lat-long maps compared, at most (texels of 0.35 deg, about those of a
+#: 256 px face's centre: bounds the measure's cost for 4k and larger worlds).
 MAX_REFERENCE_ROWS = 512
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -94,10 +94,10 @@ def _filtered(maps, kernel, rows, half):
 
 
 def _reference_rows(world_rows):
-    """The world's rows halved until at most MAX_REFERENCE_ROWS: a level of its exact
-    2 x 2 box pyramid, so the reference map is the world's own texels (no resampling,
-    which would alias lamps a texel wide), and a probe's bilinear reconstruction is
-    read at about its own detail or finer."""
+    """Rows R of the compared maps: the world's rows, halved (while even) to at most
+    MAX_REFERENCE_ROWS. The lobe itself is filtered at its own working rows within R
+    (prefilter.filter_rows: 6 texels per width), from lat-long maps of the world or
+    the probe read with enough sub-samples not to alias their lamps (_ExactMaps)."""
     rows = int(world_rows)
     while rows > MAX_REFERENCE_ROWS and rows % 2 == 0:
         rows //= 2
@@ -106,9 +106,9 @@ def _reference_rows(world_rows):
 
 #: Sub-samples per texel side of the lat-long working maps compared. The bake's
 #: ProbeMaps use 2 x 2 where the source is at most 4x finer, which moves and
-#: scales lamps a texel wide by up to about 10% in the lobe-filtered map
-#: (night.exr, GGX 0.3: 8% apart at a 328 px face); four sub-samples per source
-#: texel side (at most SAMPLES) bring that to about 1%.
+#: scales lamps a texel wide in the lobe-filtered map (night.exr, GGX 0.3: the
+#: world and its 328 px probe came out 8% apart, the brightest texel 13%); four
+#: sub-samples per source texel side (at most SAMPLES) bring that to 1%.
 SAMPLES = 8
 
 

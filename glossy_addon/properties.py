@@ -62,9 +62,10 @@ class GlossyObjectSettings(bpy.types.PropertyGroup):
 
     probe_size_mode: bpy.props.EnumProperty(
         name="Probe Size", description="How the probe's cube face size is chosen",
-        items=[("AUTO", "Auto", "From the narrowest lobe of the object's Glossy materials "
-                                "(and, for World Only, the world image's own detail), at most "
-                                "Probe Resolution"),
+        items=[("AUTO", "Auto", "From the narrowest lobe of the object's Glossy materials, "
+                                "raised where the world image's small lights need finer "
+                                "texels (measured on the image), never finer than the image "
+                                "(World Only), at most Probe Resolution"),
                ("FIXED", "Fixed", "Exactly Probe Resolution")],
         default="AUTO",
     )

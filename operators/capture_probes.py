@@ -93,8 +93,13 @@ def _world_detail_steps(context, face, reason, detail, cache):
     image = find_environment_image(context.scene.world)
     key = (image.name, round(width, 7), face, cap)
     if key not in cache:
-        cache[key] = yield from probe_detail.world_face_steps(image_pixels(image), width,
-                                                              face, cap)
+        try:
+            cache[key] = yield from probe_detail.world_face_steps(image_pixels(image), width,
+                                                                  face, cap)
+        except (BakeError, ValueError) as error:  # e.g. NaN texels: the lobe rule stands
+            cache[key] = str(error)
+    if isinstance(cache[key], str):
+        return face, f"{reason}; the world image's detail was not measured ({cache[key]})"
     chosen, error, tried = cache[key]
     first = tried[0][1]
     if chosen == face:
