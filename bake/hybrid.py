@@ -12,12 +12,14 @@ two:
 with w per bin of view elevation mu = n.v and per roughness, *measured* on
 Blender's bundled HDRIs by ``benchmarks/hybrid.py`` (which writes
 ``hybrid_errors.json`` beside this module; nothing here is tuned by hand),
-each roughness from a probe of the face Auto captures for it
-(bake.resolution.choose_probe_face: 200 px at GGX 0.1 to 32 px at 0.6), so
-the weights judge the two methods where the bake uses them (measured at 64
-px for all, GGX 0.1 had w near 0 from n.v 0 to 0.35: there the coarse probe
-limited regular sampling; at its 200 px it beats the map in every bin below
-n.v 0.7, and w is 0.6-0.9):
+each roughness and HDRI from a probe of the face Auto captures for it
+(``--face world``: bake.resolution.choose_probe_face's lobe rule, 200 px at
+GGX 0.1 to 32 px at 0.6, raised for the HDRI's small lights by
+bake.probe_detail: up to 328 px at GGX 0.1), so the weights judge the two
+methods where the bake uses them (measured at 64 px for all, GGX 0.1 had w
+near 0 from n.v 0 to 0.35: there the coarse probe limited regular sampling;
+at the lobe rule's 200 px w was 0.6-0.9 below n.v 0.7, and at the faces the
+HDRIs' lamps need it is 0.7-1.0):
 each bin's w is the least-squares blend of the two estimates against the
 brute-force integral,
 

@@ -3,8 +3,9 @@ the hybrid's own, on every bundled HDRI.
 
 For each of Blender's bundled HDRIs and isotropic GGX roughness 0.1, 0.2, 0.3,
 0.45 and 0.6, from a cube probe of the face Auto captures for that roughness
-(bake.resolution.choose_probe_face: 200 / 104 / 72 / 48 / 32 px; ``--face N``
-for one size for all), a sphere (64^2 pixels) is rendered by the
+(bake.resolution.choose_probe_face: 200 / 104 / 72 / 48 / 32 px; ``--face
+world``: raised per HDRI for its small lights as the capture's Auto does,
+bake.probe_detail; ``--face N`` for one size for all), a sphere (64^2 pixels) is rendered by the
 brute-force integral (bake.reference, the truth), by the 3D map at Auto size
 (bake.prefilter) and by regular sampling with 19, 61 and 127 samples as the
 Runtime Sampling nodes compute it (bake.sampling_runtime.shade, their NumPy
@@ -18,7 +19,7 @@ Then the hybrid against both methods alone, per budget, HDRI and roughness,
 with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
-    .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|64]
+    .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
 
 By default both methods see the probe without its small bright lights, which
 are shaded exactly (bake.probe_lights, Probe Lights on: the bake's default);
@@ -43,6 +44,7 @@ from bake import (  # noqa: E402
     hybrid,
     lobes,
     prefilter,
+    probe_detail,
     probe_lights,
     reference,
     resolution,
@@ -54,6 +56,8 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 ROUGHNESS = (0.1, 0.2, 0.3, 0.45, 0.6)
 EDGES = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0)
 BUDGETS = (19, 61, 127)
+#: (HDRI, roughness) -> the probe face :func:`renders` used.
+FACES_USED = {}
 
 
 def hdri_directory():
@@ -77,16 +81,29 @@ def runtime_twin(cube, spec, budget, normals, views, lights=()):
     return sampling_runtime.shade(atlas, meta, normals, views)
 
 
-def auto_face(roughness):
-    """The probe face glossy.capture_probes' Auto gives a Hybrid material of isotropic
-    GGX ``roughness`` (operators.capture_probes: the narrowest of the 3D fit's
-    lobes and the sampled lobe)."""
-    spec = f"ggx:roughness={roughness}"
-    fit = lobes.fit(spec, slices=16)
+def _widths(roughness):
+    fit = lobes.fit(f"ggx:roughness={roughness}", slices=16)
     widths = [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
               for s in fit.slices for lobe in s.lobes]
     widths.append(resolution.ggx_half_width(roughness ** 2))
-    return resolution.choose_probe_face(widths, maximum=4096).value
+    return widths
+
+
+def auto_face(roughness):
+    """The probe face glossy.capture_probes' lobe rule gives a Hybrid material of
+    isotropic GGX ``roughness`` (operators.capture_probes: the narrowest of the 3D
+    fit's lobes and the sampled lobe)."""
+    return resolution.choose_probe_face(_widths(roughness), maximum=4096).value
+
+
+def world_face(image, roughness):
+    """The face glossy.capture_probes' Auto gives that material in the world ``image``
+    (H, 2H, 3): the lobe rule's, raised for the world's small lights
+    (bake.probe_detail), at most the world's own detail."""
+    widths = _widths(roughness)
+    lobe_face = resolution.choose_probe_face(widths, maximum=4096).value
+    cap = max(lobe_face, resolution.world_detail_face(image.shape[0]))
+    return probe_detail.choose_world_face(image, min(widths), lobe_face, cap)[0]
 
 
 def renders(name, directory, size=64, face="auto", with_lights=False):
@@ -104,7 +121,9 @@ def renders(name, directory, size=64, face="auto", with_lights=False):
     for roughness in ROUGHNESS:
         spec = f"ggx:roughness={roughness}"
         model = brdf.parse(spec)
-        size_px = auto_face(roughness) if face == "auto" else int(face)
+        size_px = auto_face(roughness) if face == "auto" else \
+            world_face(image[..., :3], roughness) if face == "world" else int(face)
+        FACES_USED[(name, roughness)] = size_px
         cube = convert(image[..., :3], "latlong", "cube", size_px)
         truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
         probe, lights, light_term = cube, (), 0.0
@@ -158,8 +177,10 @@ def table_from(results, names, face="auto"):
             weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
     return hybrid.ErrorTable(ROUGHNESS, EDGES, map_error, regular_error, weight,
                              {"hdris": list(names), "sphere": 64,
-                              "probe_face": face if face != "auto" else
-                              {str(r): auto_face(r) for r in ROUGHNESS},
+                              "probe_face": {str(r): auto_face(r) for r in ROUGHNESS}
+                              if face == "auto" else
+                              {f"{n} {r}": FACES_USED.get((n, r)) for n in names
+                               for r in ROUGHNESS} if face == "world" else face,
                               "brdf": "ggx (isotropic)"}, BUDGETS)
 
 
