@@ -117,19 +117,10 @@ class _ExactMaps(ProbeMaps):
     SAMPLES per target texel side; one, the bilinear reconstruction, where the
     source has at most a quarter of the target's texels)."""
 
-    def convert(self, layout, size):
-        from .envmap import get_layout
-
-        source, target = get_layout(self.layout), get_layout(layout)
-        needed = target.covered_texels(target.shape(size))
-        chosen = self.levels[0]
-        for level in self.levels:
-            if source.covered_texels(level.shape[:2]) >= needed:
-                chosen = level
-        ratio = source.covered_texels(chosen.shape[:2]) / needed
+    @staticmethod
+    def samples_for(ratio):
         # Reading a much coarser source, one bilinear tap per texel is its reconstruction.
-        samples = 1 if ratio <= 0.25 else min(SAMPLES, math.ceil(4.0 * math.sqrt(ratio)))
-        return convert(chosen, self.layout, layout, size, samples=samples)
+        return 1 if ratio <= 0.25 else min(SAMPLES, math.ceil(4.0 * math.sqrt(ratio)))
 
 
 class WorldDetail:

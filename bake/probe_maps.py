@@ -69,11 +69,16 @@ class ProbeMaps:
             if source.covered_texels(level.shape[:2]) >= needed:
                 chosen = level
         ratio = source.covered_texels(chosen.shape[:2]) / needed
-        # A level already box-filtered close to the target's resolution needs
-        # few sub-samples: 2 x 2 when it has at most 4x the target's texels,
-        # one (the bilinear reconstruction itself) when the target is finer.
-        samples = 1 if ratio <= 1.0 else (2 if ratio <= 4.0 else None)
-        return convert(chosen, self.layout, layout, size, samples=samples)
+        return convert(chosen, self.layout, layout, size, samples=self.samples_for(ratio))
+
+    @staticmethod
+    def samples_for(ratio):
+        """Sub-samples per target texel side for a source level with ``ratio`` times the
+        target's texels (None: envmap.convert's own rule). A level already
+        box-filtered close to the target's resolution needs few: 2 x 2 when it
+        has at most 4x the target's texels, one (the bilinear reconstruction
+        itself) when the target is finer."""
+        return 1 if ratio <= 1.0 else (2 if ratio <= 4.0 else None)
 
     def _row_lock(self, rows):
         with self._lock:
