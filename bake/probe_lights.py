@@ -99,12 +99,27 @@ SPREAD_CAP_PER_ALPHA = 0.5
 #: Tiles of a wide region's brightest texels have a radius of this fraction of the
 #: lobe's alpha (limits_for); dimmer texels' tiles are wider (tile_growth).
 TILE_FRACTION = 0.25
+#: Steps per octave of the threshold ladders below (extract_for's rule is "the
+#: lowest threshold at which every bright region fits"; the ladder is its
+#: discretisation).
+LADDER_STEPS_PER_OCTAVE = 4
+
+
+def _ladder(start, stop):
+    """Thresholds from ``start`` to ``stop`` (both kept) in equal ratios of about
+    2^(1/LADDER_STEPS_PER_OCTAVE), rounded to 4 significant digits."""
+    steps = round(abs(math.log2(stop / start)) * LADDER_STEPS_PER_OCTAVE)
+    return tuple(float(f"{start * (stop / start) ** (k / steps):.4g}") for k in range(steps + 1))
+
+
 #: Thresholds (times the probe's mean luminance) tried from the highest; the
-#: lowest at which every bright region fits in MAX_LIGHTS is used (extract_for).
-THRESHOLDS = (20.0, 10.0, 5.0, 3.0, 2.0)
+#: lowest at which every bright region fits in MAX_LIGHTS is used (extract_for):
+#: 20x down to 2x in 13 equal ratios of 1.19 (about four per octave: 20, 16.75,
+#: 14.03, ..., 2.388, 2).
+THRESHOLDS = _ladder(20.0, 2.0)
 #: Thresholds tried upward, the lowest that fits kept, when THRESHOLDS[0] does not
-#: fit (extract_for).
-THRESHOLDS_ABOVE = (40.0, 80.0, 160.0, 320.0, 640.0)
+#: fit (extract_for): 23.78x up to 640x in ratios of 2^(1/4).
+THRESHOLDS_ABOVE = _ladder(20.0, 640.0)[1:]
 #: Tiles of texels at least TILE_EXCESS times the threshold's luminance above it
 #: have the lobe's tile radius; dimmer ones up to TILE_GROWTH times it (tile_growth).
 TILE_EXCESS = 32.0

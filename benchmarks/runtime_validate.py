@@ -22,6 +22,7 @@ same pixels.
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -51,7 +52,7 @@ def main():
     print(f"{args.size}^2 px, Cycles 2 x {args.cycles} spp, EEVEE {args.eevee} samples, "
           f"probe {args.probe}; relative RMS of luminance against Cycles", flush=True)
     print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "
-          f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s}", flush=True)
+          f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s} {'face':>5s}", flush=True)
     for case in args.case or CASES:
         method, roughness, anisotropy, samples, *principled = case.split(":")
         for hdri in hdris:
@@ -75,10 +76,11 @@ def main():
                 print(f"{hdri:10s} {case:22s} failed: {tail}", flush=True)
                 continue
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
+            face = re.search(r"(\d+) px", result["S"].get("probe_reason", ""))
             print(f"{hdri:10s} {case:22s} {rms['eevee_glossy']:7.3f} {rms['eevee_native']:7.3f} "
                   f"{rms.get('eevee_native_careful', float('nan')):7.3f} "
-                  f"{rms['reference']:9.3f} {figures['cycles_noise']:6.3f} {seconds:6.0f}",
-                  flush=True)
+                  f"{rms['reference']:9.3f} {figures['cycles_noise']:6.3f} {seconds:6.0f} "
+                  f"{face.group(1) if face else '?':>5s}", flush=True)
 
 
 if __name__ == "__main__":
