@@ -120,6 +120,10 @@ THRESHOLDS = _ladder(20.0, 2.0)
 #: Thresholds tried upward, the lowest that fits kept, when THRESHOLDS[0] does not
 #: fit (extract_for): 23.78x up to 640x in ratios of 2^(1/4).
 THRESHOLDS_ABOVE = _ladder(20.0, 640.0)[1:]
+#: Halvings (in log) of the ratio between the rung that fits and the one below that
+#: does not, tried by extract_for: the lights taken are not monotone in the
+#: threshold, so the rung below can fail where a threshold just above it fits.
+REFINE_STEPS = 3
 #: Tiles of texels at least TILE_EXCESS times the threshold's luminance above it
 #: have the lobe's tile radius; dimmer ones up to TILE_GROWTH times it (tile_growth).
 TILE_EXCESS = 32.0
@@ -404,23 +408,38 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
     limits = limits_for(ax, ay)
     largest = float(get_layout(layout).solid_angles(np.asarray(probe).shape[:2]).max())
     limits["max_spread"] = compact_spread_for(min(ax, ax if ay is None else ay), largest)
-    chosen = None
+
+    def split_at(threshold):
+        return extract(probe, layout, threshold=threshold, max_lights=max_lights,
+                       require_all=True, **limits)
+
+    fits, fails = None, None  # (threshold, split) of the lowest rung that fits; the rung below
     for threshold in THRESHOLDS:
-        split = extract(probe, layout, threshold=threshold, max_lights=max_lights,
-                        require_all=True, **limits)
+        split = split_at(threshold)
         if split is None:
+            fails = threshold
             break
-        chosen = split
-    if chosen is None:
+        fits = (threshold, split)
+    if fits is None:
+        fails = THRESHOLDS[0]
         for threshold in THRESHOLDS_ABOVE:
-            chosen = extract(probe, layout, threshold=threshold, max_lights=max_lights,
-                             require_all=True, **limits)
-            if chosen is not None:
+            split = split_at(threshold)
+            if split is not None:
+                fits = (threshold, split)
                 break
-    if chosen is None:
-        chosen = extract(probe, layout, threshold=THRESHOLDS_ABOVE[-1], max_lights=max_lights,
-                         **limits)
-    return chosen
+            fails = threshold
+    if fits is None:
+        return extract(probe, layout, threshold=THRESHOLDS_ABOVE[-1], max_lights=max_lights,
+                       **limits)
+    if fails is not None:  # between two rungs: REFINE_STEPS halvings of the ratio
+        for _ in range(REFINE_STEPS):
+            middle = float(f"{math.sqrt(fits[0] * fails):.4g}")
+            split = split_at(middle)
+            if split is None:
+                fails = middle
+            else:
+                fits = (middle, split)
+    return fits[1]
 
 
 def extract_kept(probe, layout="cube", ax=0.09, ay=None):
@@ -431,9 +450,9 @@ def extract_kept(probe, layout="cube", ax=0.09, ay=None):
 
     key = (round(float(ax), 9), round(float(ax if ay is None else ay), 9))
     return probe_maps(probe, layout).kept(
-        ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, RADIUS_TEXELS, MAX_LIGHTS, ADJACENT_TEXELS,
-         GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH, SPREAD_PER_ALPHA,
-         UNRESOLVED_SPREADS, SPREAD_CAP_PER_ALPHA, key),
+        ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, REFINE_STEPS, RADIUS_TEXELS, MAX_LIGHTS,
+         ADJACENT_TEXELS, GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH,
+         SPREAD_PER_ALPHA, UNRESOLVED_SPREADS, SPREAD_CAP_PER_ALPHA, key),
         lambda: extract_for(probe, layout, ax, ay))
 
 

@@ -1,12 +1,17 @@
 """Probe Lights' threshold ladder (bake.probe_lights.THRESHOLDS): the ladder of
-stop 34 and before (20, 10, 5, 3, 2x the probe's mean; 40 ... 640x above)
-against the current one (about four rungs per octave), on every bundled HDRI.
+stop 34 and before (20, 10, 5, 3, 2x the probe's mean; 40 ... 640x above),
+the current one (about four rungs per octave) without its refinement between
+rungs, and as extract_for uses it (REFINE_STEPS halvings between the rung that
+fits and the one that does not), on every bundled HDRI.
 
 extract_for keeps the lowest threshold at which every bright region fits in
 MAX_LIGHTS; the ladder is that rule's discretisation. With rungs an octave
 apart the count of lights taken jumps (courtyard.exr at GGX 0.45: 96 lights
 at 3x from 40 px faces, then 56 at 5x from 48 px, because 3x needs 104 there),
-so the error of both probe methods was not monotone in the probe's face.
+so the error of both probe methods was not monotone in the probe's face. The
+lights taken are not monotone in the threshold either (courtyard.exr at GGX
+0.3, 72 px: 67 lights at 9.85x, more than 96 at 8.25x, 92 at 8.41x), so
+extract_for refines between the last rung that fits and the first that fails.
 
 For each HDRI and GGX roughness, from the probe face Auto captures for it
 (benchmarks/hybrid.py's world_face: the lobe rule raised for the world's
@@ -66,9 +71,13 @@ def main():
     normals, views = normals[mask], views[mask]
     mu = np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0)
     current = (probe_lights.THRESHOLDS, probe_lights.THRESHOLDS_ABOVE)
+    refine = probe_lights.REFINE_STEPS
+    variants = (("octave", OCTAVE_LADDER, 0), ("rungs only", current, 0),
+                ("refined", current, refine))
     print(f"{'GGX':>4s} {'HDRI':10s} {'face':>4s} | "
-          f"{'octave ladder: lights, map, runtime, hybrid':45s}| {'current ladder':45s}| s")
-    totals = {"octave": [], "current": []}
+          f"{'octave ladder: lights, map, runtime, hybrid':45s}| {'current rungs only':45s}| "
+          f"{'current, refined (extract_for)':45s}| s")
+    totals = {label: [] for label, _, _ in variants}
     try:
         for roughness in (float(r) for r in args.roughness.split(",")):
             spec = f"ggx:roughness={roughness}"
@@ -81,8 +90,9 @@ def main():
                 cube = convert(image, "latlong", "cube", face)
                 truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
                 cells = []
-                for label, ladder in (("octave", OCTAVE_LADDER), ("current", current)):
+                for label, ladder, steps in variants:
                     probe_lights.THRESHOLDS, probe_lights.THRESHOLDS_ABOVE = ladder
+                    probe_lights.REFINE_STEPS = steps
                     count, threshold, *errors = measure(cube, spec, roughness, normals, views,
                                                         weight, truth)
                     totals[label].append(errors)
@@ -92,9 +102,10 @@ def main():
                       + f" | {time.perf_counter() - start:.0f}", flush=True)
     finally:
         probe_lights.THRESHOLDS, probe_lights.THRESHOLDS_ABOVE = current
+        probe_lights.REFINE_STEPS = refine
     for label, rows in totals.items():
         rows = np.asarray(rows)
-        print(f"{label} ladder, root mean square over {len(rows)} cases: map "
+        print(f"{label}: root mean square over {len(rows)} cases: map "
               f"{np.sqrt(np.mean(rows[:, 0] ** 2)):.4f}, runtime "
               f"{np.sqrt(np.mean(rows[:, 1] ** 2)):.4f}, hybrid "
               f"{np.sqrt(np.mean(rows[:, 2] ** 2)):.4f}")
