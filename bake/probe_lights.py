@@ -255,16 +255,28 @@ def _clusters(ordered, directions, radius):
     (rad): one for all, or one per texel of ``ordered``. Returns a list of
     index lists."""
     radii = np.broadcast_to(np.asarray(radius, dtype=np.float64), (len(ordered),))
+    one_radius = np.ndim(radius) == 0
     cos_radii = np.empty(len(ordered))
     radii_of = np.empty(len(ordered))
     centres = np.empty((len(ordered), 3))
     members: list = []
     for position, index in enumerate(ordered):
-        if members:
-            near = centres[:len(members)] @ directions[index]
-            angle = np.arccos(np.clip(near, -1.0, 1.0)) / radii_of[:len(members)]
-            best = int(np.argmin(angle))
-            if near[best] >= cos_radii[best]:
+        count = len(members)
+        if count:
+            # Only clusters within their own radius can be the nearest one that is
+            # joined (in radii, it is at most 1 there and above 1 elsewhere): the
+            # angles are taken of those alone, and not at all when there is one, or
+            # when every radius is the same (the largest cosine is then the nearest).
+            near = centres[:count] @ directions[index]
+            inside = np.flatnonzero(near >= cos_radii[:count])
+            if inside.size:
+                if inside.size == 1:
+                    best = int(inside[0])
+                elif one_radius:
+                    best = int(inside[np.argmax(near[inside])])
+                else:
+                    angle = np.arccos(np.minimum(near[inside], 1.0)) / radii_of[inside]
+                    best = int(inside[np.argmin(angle)])
                 members[best].append(index)
                 continue
         centres[len(members)] = directions[index]
