@@ -62,6 +62,7 @@ interior 0.120 -> 0.020, night 0.246 -> 0.032, sunrise 0.123 -> 0.009.
 Directions are world space (bake.envmap's axes); irradiance is RGB.
 """
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -188,8 +189,7 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
         raise BakeError(f"tile_radius must be positive, not {tile_radius}")
     grid = get_layout(layout)
     shape = image.shape[:2]
-    directions = grid.texel_directions(shape).reshape(-1, 3)
-    omega = grid.solid_angles(shape).reshape(-1)
+    directions, omega = _geometry(grid.name, shape)
     radiance = image[..., :3].reshape(-1, 3).astype(np.float64)
     luminance = radiance @ LUMINANCE
     mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
@@ -248,41 +248,68 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     return residual, lights
 
 
+@functools.lru_cache(maxsize=4)
+def _geometry(layout, shape):
+    """(directions (T, 3), solid angles (T,)) of every texel of a ``layout`` image of
+    ``shape`` (H, W), read-only: extract_for's ladder splits one probe many times."""
+    grid = get_layout(layout)
+    directions = grid.texel_directions(shape).reshape(-1, 3)
+    omega = grid.solid_angles(shape).reshape(-1)
+    directions.flags.writeable = omega.flags.writeable = False
+    return directions, omega
+
+
 def _clusters(ordered, directions, radius):
     """Texel indices ``ordered`` (brightest first) grouped greedily: each joins the
     cluster whose first (brightest) texel is nearest, measured in that cluster's
     radius, when within it, else starts one with its own radius. ``radius``
     (rad): one for all, or one per texel of ``ordered``. Returns a list of
-    index lists."""
-    radii = np.broadcast_to(np.asarray(radius, dtype=np.float64), (len(ordered),))
+    index lists.
+
+    The texels are taken in blocks: a cluster's centre never moves, so every
+    texel before the first one of the block that starts a cluster joins one of
+    the clusters that exist at the block's start, all found by one product;
+    the cost follows the number of clusters, not of texels."""
+    ordered = np.asarray(ordered, dtype=np.intp)
+    total = len(ordered)
+    radii = np.broadcast_to(np.asarray(radius, dtype=np.float64), (total,))
     one_radius = np.ndim(radius) == 0
-    cos_radii = np.empty(len(ordered))
-    radii_of = np.empty(len(ordered))
-    centres = np.empty((len(ordered), 3))
-    members: list = []
-    for position, index in enumerate(ordered):
-        count = len(members)
+    points = directions[ordered]
+    cos_radii = np.empty(total)
+    radii_of = np.empty(total)
+    centres = np.empty((total, 3))
+    owner = np.empty(total, dtype=np.intp)
+    count = position = 0
+    block = 32
+    while position < total:
         if count:
-            # Only clusters within their own radius can be the nearest one that is
-            # joined (in radii, it is at most 1 there and above 1 elsewhere): the
-            # angles are taken of those alone, and not at all when there is one, or
-            # when every radius is the same (the largest cosine is then the nearest).
-            near = centres[:count] @ directions[index]
-            inside = np.flatnonzero(near >= cos_radii[:count])
-            if inside.size:
-                if inside.size == 1:
-                    best = int(inside[0])
-                elif one_radius:
-                    best = int(inside[np.argmax(near[inside])])
+            near = points[position:position + block] @ centres[:count].T  # (B, clusters)
+            inside = near >= cos_radii[:count]
+            missing = np.flatnonzero(~inside.any(axis=1))
+            joined = int(missing[0]) if missing.size else len(near)
+            if joined:
+                # Only clusters within their own radius can be the nearest one in
+                # radii (at most 1 there, above 1 elsewhere); with one radius for
+                # all, the largest cosine is the nearest.
+                if one_radius:
+                    best = np.where(inside[:joined], near[:joined], -np.inf).argmax(axis=1)
                 else:
-                    angle = np.arccos(np.minimum(near[inside], 1.0)) / radii_of[inside]
-                    best = int(inside[np.argmin(angle)])
-                members[best].append(index)
+                    angle = np.arccos(np.minimum(near[:joined], 1.0)) / radii_of[:count]
+                    best = np.where(inside[:joined], angle, np.inf).argmin(axis=1)
+                owner[position:position + joined] = best
+                position += joined
+            block = min(4 * block, 4096) if not missing.size else max(16, 2 * joined)
+            if position >= total or not missing.size:
                 continue
-        centres[len(members)] = directions[index]
-        cos_radii[len(members)] = math.cos(radii[position])
-        radii_of[len(members)] = radii[position]
-        members.append([index])
+        centres[count] = points[position]
+        cos_radii[count] = math.cos(radii[position])
+        radii_of[count] = radii[position]
+        owner[position] = count
+        count += 1
+        position += 1
+    members: list = [[] for _ in range(count)]
+    for index, cluster in zip(ordered.tolist(), owner.tolist(), strict=True):
+        members[cluster].append(index)
     return members
 
 
