@@ -24,7 +24,14 @@ shading time to native EEVEE's, and the node count (the runtime samples are a
 loop, so it does not grow with them).
 
     .venv/bin/python benchmarks/sampling_eevee.py [--hdri sunset.exr] [--size 256]
-        [--spec ggx:roughness=0.3,anisotropy=0.8]
+        [--spec ggx:roughness=0.3,anisotropy=0.8] [--probe 128|auto]
+
+``--probe auto`` captures the probe at the face glossy.capture_probes' Auto
+gives an isotropic GGX material in that world (the lobe rule raised for the
+world's small lights: night.exr at GGX 0.1 gets 328 px), and the textures are
+sized as glossy.bake_materials sizes them there (the runtime level stack
+twice the face's rows as a power of two, at most Max Map Size 256; the map
+at Auto, at most 256 rows).
 """
 
 import argparse
@@ -52,6 +59,10 @@ from glossy.glossy_addon.scenes import environment_world
 from _ortho_sphere import add_sphere_and_camera
 
 hdri, work, spec, size = sys.argv[2], Path(sys.argv[3]), sys.argv[4], int(sys.argv[5])
+face = int(sys.argv[6])
+#: The runtime level stack as glossy.bake_materials makes it (operators.bake_materials.
+#: runtime_height at Max Map Size 256): twice the face's rows, a power of two, at most 256.
+stack_rows = min(256, 1 << int(np.floor(np.log2(2 * face))))
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 environment_world(scene, hdri)
@@ -64,7 +75,7 @@ scene.render.image_settings.file_format = "OPEN_EXR"
 sphere = add_sphere_and_camera(scene, 96, 48, 2.1)
 model = brdf.parse(spec)
 environment, _ = exr.read(hdri)
-probe = envmap.convert(environment[..., :3], "latlong", "cube", 128)
+probe = envmap.convert(environment[..., :3], "latlong", "cube", face)
 
 
 def native():
@@ -109,7 +120,8 @@ def runtime(budget, for_hybrid=False, lights=False):
     if lights:
         lobe = sampling_runtime.check(spec)[0]
         source, taken = probe_lights.extract_for(probe, "cube", lobe.mx, lobe.my)
-    data, meta = sampling_runtime.pack(source, spec, budget=budget, height=256, lights=taken)
+    data, meta = sampling_runtime.pack(source, spec, budget=budget, height=stack_rows,
+                                        lights=taken)
     if for_hybrid:
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
                                                samples=len(meta["prob"]))
@@ -160,27 +172,48 @@ for name, material in cases:
 '''
 
 
+def probe_face(probe, spec, hdri):
+    """The probe face in px: ``probe`` as a number, or for ``auto`` the face the
+    capture's Auto gives an isotropic GGX ``spec`` in the world ``hdri``
+    (benchmarks.hybrid.world_face: the lobe rule raised for the world's small lights)."""
+    if probe != "auto":
+        return int(probe)
+    from bake import brdf, exr
+    from benchmarks.hybrid import world_face
+
+    model = brdf.parse(spec)
+    if model.name != "ggx" or not model.isotropic:
+        sys.exit("--probe auto needs an isotropic GGX spec (its face rule is the Hybrid's)")
+    image, _ = exr.read(studio_lights() / hdri)
+    return world_face(image[..., :3], model.params["roughness"])
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hdri", default="sunset.exr")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--spec", action="append",
                         help="BRDF spec (repeatable; default GGX 0.3 anisotropy 0.8, and 0.3)")
+    parser.add_argument("--probe", default="128",
+                        help="probe face px, or auto: the face Auto captures for the "
+                             "(isotropic GGX) material in this world")
     args = parser.parse_args()
     import json
 
     for spec in args.spec or ["ggx:roughness=0.3,anisotropy=0.8", "ggx:roughness=0.3"]:
+        face = probe_face(args.probe, spec, args.hdri)
         work = Path(tempfile.mkdtemp())
         script = work / "scene.py"
         script.write_text(SCENE)
-        print(f"{spec}, {args.hdri}, {args.size}^2 px, EEVEE (software GL here); compile = "
+        print(f"{spec}, {args.hdri}, {face} px probe faces, {args.size}^2 px, EEVEE "
+              f"(software GL here); compile = "
               f"first render - frame time (1 sample); per sample = (9-sample frame - "
               f"1-sample frame) / 8", flush=True)
         print(f"  {'method':34s} {'nodes':>6s} {'first s':>8s} {'frame s':>8s} "
               f"{'compile s':>9s} {'sample ms':>9s} {'x native':>8s}", flush=True)
         process = subprocess.Popen(
             [sys.executable, str(script), str(ROOT / "tests" / "blender" / "scripts"),
-             str(studio_lights() / args.hdri), str(work), spec, str(args.size)],
+             str(studio_lights() / args.hdri), str(work), spec, str(args.size), str(face)],
             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         base = native = None
         for line in process.stdout:
