@@ -68,6 +68,18 @@ Per pixel (world normal n, view v, tangent t; float32 in the nodes):
     is returned as its radiance times the albedo, to the table's bilinear
     interpolation), plus the probe lights' term (above).
 
+Cycles' Beckmann lobe (``kind`` "beckmann" in the meta) is sampled through the
+same GGX visible normals of its alphas, each sample weighed for the Beckmann
+lobe it estimates: w_j = prob_j G2_B(wi_j, wo) D_B(h_j) / D_GGX(h_j) (f cos
+over the GGX sample's density, up to G1_GGX(wo), which the normalisation
+cancels; :func:`proposal_ratio`), with Cycles' rational Beckmann Lambda in
+G2_B. GGX's tails are heavier than Beckmann's, so the ratio is at most 1 and
+no sample's weight blows up. The footprints (Omega_j) stay the GGX samples'
+own, rho and A_ss are Beckmann's, and the lights' term uses Beckmann's D and
+Lambdas. Measured on a smooth sky with 61 samples at n.v >= 0.3: 1.6% from
+the brute-force integral, against 3.1% with the samples weighed as GGX
+(tests/bake/test_sampling_runtime.py).
+
 The tint and a Fresnel term (Principled metallic) enter through rho only: the
 weights are scalar. That is the one difference from bake.sampling's
 render_regular besides the texture's lat-long levels and the tabulated albedo.
@@ -77,7 +89,13 @@ import numpy as np
 
 from . import brdf
 from .atlas import _lookup, _pad
-from .brdf.microfacet import ggx_d, ggx_lambda, sample_ggx_vndf
+from .brdf.microfacet import (
+    beckmann_d,
+    beckmann_lambda_cycles,
+    ggx_d,
+    ggx_lambda,
+    sample_ggx_vndf,
+)
 from .errors import BakeError
 from .probe_maps import probe_maps
 from .sampling import DEFAULTS, lobe_of, pattern_for_budget
@@ -87,6 +105,9 @@ __all__ = ["pack", "shade", "mip_bias_for", "check", "samples_of", "MODE", "ALBE
            "ALBEDO_PHI"]
 
 MODE = "atlas_runtime"
+#: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
+#: own distribution weighs each GGX sample; see the module doc).
+KINDS = ("ggx", "beckmann")
 #: Albedo table size: M values of mu = n.v, P of the folded view azimuth.
 ALBEDO_MU = 32
 ALBEDO_PHI = 9
@@ -115,14 +136,34 @@ def _lobe_directions(mu, phi):
 def check(spec, budget=19):
     """The lobe and pattern ``pack`` would use for BRDF ``spec`` and a sample
     budget, without the work: (bake.sampling.Lobe, bake.sampling.Pattern), or
-    BakeError (a BRDF with no GGX lobe, a budget no pattern gives)."""
+    BakeError (a BRDF with no GGX or Cycles' Beckmann lobe, a budget no pattern
+    gives)."""
     model = brdf.parse(spec)
     lobe = lobe_of(model)
-    if lobe.kind != "ggx":
+    if lobe.kind not in KINDS or (lobe.kind == "beckmann" and model.name != "beckmann"):
         raise BakeError(f"runtime sampling in shader nodes samples GGX lobes (ggx, "
-                        f"principled_metallic, ggx_multiscatter), not {lobe.kind} "
-                        f"({model.spec})")
+                        f"principled_metallic, ggx_multiscatter) and Cycles' Beckmann, not "
+                        f"{model.spec} (its {lobe.kind} lobe)")
     return lobe, pattern_for_budget(budget, lobe.anisotropic)
+
+
+def lobe_lambda(kind, w, ax, ay):
+    """Smith Lambda of the sampled lobe's distribution at lobe-frame directions w
+    (..., 3): GGX's, or Cycles' rational Beckmann one."""
+    return ggx_lambda(w, ax, ay) if kind == "ggx" else beckmann_lambda_cycles(w, ax, ay)
+
+
+def proposal_ratio(kind, h, ax, ay):
+    """D(h) / D_GGX(h) (...) at lobe-frame half vectors h (..., 3): 1 for GGX; for
+    Beckmann exp(-tau) (1 + tau)^2 with tau = (hx^2/ax^2 + hy^2/ay^2) / hz^2 (the
+    importance weight of a GGX visible-normal sample for a Beckmann lobe of the
+    same alphas, up to the factor G1_GGX(wo) that the normalisation cancels)."""
+    if kind == "ggx":
+        return np.ones(h.shape[:-1])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        tau = ((h[..., 0] / ax) ** 2 + (h[..., 1] / ay) ** 2) / (h[..., 2] ** 2)
+        value = np.exp(-tau) * (1.0 + tau) ** 2
+    return np.where(h[..., 2] > 0, np.nan_to_num(value), 0.0)
 
 
 def stretched_pattern(count, aspect, resolution=512):
@@ -164,10 +205,11 @@ def stretched_pattern(count, aspect, resolution=512):
     return np.array(points), np.array(probs)
 
 
-def single_scatter_albedo(wo, ax, ay, samples=LIGHT_ALBEDO_SAMPLES):
+def single_scatter_albedo(wo, ax, ay, samples=LIGHT_ALBEDO_SAMPLES, kind="ggx"):
     """A_ss(wo) = integral of D G2 / (4 wo_z) over incident directions: the albedo of
-    an untinted single-scattering GGX lobe (ax, ay) for lobe-frame views wo (..., 3),
-    as E[G2 / G1(wo)] over visible normals (Hammersley points; ~1e-3 accurate)."""
+    an untinted single-scattering GGX (or ``kind`` "beckmann") lobe (ax, ay) for
+    lobe-frame views wo (..., 3), as E[G2 (D / D_GGX) / G1_GGX(wo)] over GGX's
+    visible normals (Hammersley points; ~1e-3 accurate)."""
     from .brdf.base import hammersley
 
     wo = np.asarray(wo, dtype=np.float64)
@@ -178,8 +220,10 @@ def single_scatter_albedo(wo, ax, ay, samples=LIGHT_ALBEDO_SAMPLES):
     wi = 2.0 * wo_h[..., None] * h - flat[:, None, :]
     valid = (wi[..., 2] > 0) & (wo_h > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        lambda_o = ggx_lambda(flat, ax, ay)[:, None]
-        ratio = (1.0 + lambda_o) / (1.0 + ggx_lambda(wi, ax, ay) + lambda_o)
+        g1_proposal = 1.0 + ggx_lambda(flat, ax, ay)[:, None]
+        lambda_o = lobe_lambda(kind, flat, ax, ay)[:, None]
+        ratio = g1_proposal / (1.0 + lobe_lambda(kind, wi, ax, ay) + lambda_o) \
+            * proposal_ratio(kind, h, ax, ay)
     return np.mean(np.where(valid, ratio, 0.0), axis=1).reshape(wo.shape[:-1])
 
 
@@ -215,7 +259,8 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     lights: bake.probe_lights.Light's taken out of ``probe`` (then the residual),
     shaded exactly by :func:`shade` and the nodes; kept in ``meta["lights"]``.
     bias: the lookups' MIP bias (None: :func:`mip_bias_for` the lobe).
-    BakeError for a BRDF with no GGX lobe (the nodes sample GGX's visible normals).
+    BakeError for a BRDF with no GGX or Cycles' Beckmann lobe (the nodes sample GGX's
+    visible normals).
     """
     model = brdf.parse(spec)
     lobe, plan = check(spec, budget)
@@ -246,7 +291,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
             raise BakeError(f"the level stack ({height} rows) is too small for the albedo "
                             f"tables of a probe with lights: raise the map size")
         ratio = table / np.maximum(single_scatter_albedo(
-            wo_lobe, lobe.mx, lobe.my), 1e-6)[..., None].astype(np.float32)
+            wo_lobe, lobe.mx, lobe.my, kind=lobe.kind), 1e-6)[..., None].astype(np.float32)
         extra_padded[1 + count_phi:1 + 2 * count_phi, 1:1 + ALBEDO_MU] = ratio
     if pattern == "auto":
         pattern = "stretched" if lobe.anisotropic else "regular"
@@ -277,7 +322,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     meta.update({
         "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
         "mu": [0.0] * (meta["slices"] + 1), "offsets": [0.0] * (meta["slices"] + 1),
-        "spec": model.spec, "kind": "ggx", "ax": float(lobe.mx), "ay": float(lobe.my),
+        "spec": model.spec, "kind": lobe.kind, "ax": float(lobe.mx), "ay": float(lobe.my),
         "angle": float(lobe.angle), "xi0": xi0, "bias": bias, "budget": int(budget),
         "spacing": plan.spacing, "circles": len(plan.radii),
         "disk": points.tolist(), "prob": prob.tolist(), "pattern": pattern,
@@ -447,11 +492,13 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     wo_h = np.sum(wo[:, None, :] * h, axis=-1)
     wi = 2.0 * wo_h[..., None] * h - wo[:, None, :]
     valid = (wi[..., 2] > 0) & (wo_h > 0)
+    kind = meta.get("kind", "ggx")
     with np.errstate(divide="ignore", invalid="ignore"):
-        g1 = 1.0 / (1.0 + ggx_lambda(wo, ax, ay))  # (B,)
-        g2 = 1.0 / (1.0 + ggx_lambda(wi, ax, ay) + ggx_lambda(wo, ax, ay)[:, None])
+        g1 = 1.0 / (1.0 + ggx_lambda(wo, ax, ay))  # (B,) the GGX proposal's
+        g2 = 1.0 / (1.0 + lobe_lambda(kind, wi, ax, ay)
+                    + lobe_lambda(kind, wo, ax, ay)[:, None])
         omega = prob[None] * 4.0 * wo[:, 2:3] / (g1[:, None] * ggx_d(h, ax, ay))
-    weight = np.where(valid, prob[None] * g2, 0.0)
+    weight = np.where(valid, prob[None] * g2 * proposal_ratio(kind, h, ax, ay), 0.0)
     weight = np.where(weight >= float(meta["xi0"]) * weight.max(axis=1, keepdims=True),
                       weight, 0.0)
     world = np.einsum("bnk,bkj->bnj", np.where(valid[..., None], wi, wo[:, None, :]), frames)
@@ -497,8 +544,10 @@ def light_radiance(atlas, meta, frames, wo):
     lobe; a tint, Fresnel and multiple scattering enter through rho / A_ss, their
     average over the lobe (exact for a tint)."""
     ax, ay = float(meta["ax"]), float(meta["ay"])
+    kind = meta.get("kind", "ggx")
+    distribution = ggx_d if kind == "ggx" else beckmann_d
     total = np.zeros((len(wo), 3))
-    lambda_o = ggx_lambda(wo, ax, ay)
+    lambda_o = lobe_lambda(kind, wo, ax, ay)
     # The light's extent blurs the lobe: its half vectors spread by half its RMS
     # angle, added in quadrature to the slopes' (Gaussian widths add): the widened
     # alphas (bx, by) are in the atlas (light_texels).
@@ -508,7 +557,7 @@ def light_radiance(atlas, meta, frames, wo):
         h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-30)
         valid = (wi[:, 2] > 0) & (np.sum(wo * h, axis=1) > 0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            value = ggx_d(h, bx, by) / (4.0 * wo[:, 2] * (1.0 + lambda_o
-                                                          + ggx_lambda(wi, ax, ay)))
+            value = distribution(h, bx, by) / (4.0 * wo[:, 2] * (
+                1.0 + lambda_o + lobe_lambda(kind, wi, ax, ay)))
         total += np.where(valid, value, 0.0)[:, None] * irradiance
     return total * _albedo(atlas, meta, wo, table=1)

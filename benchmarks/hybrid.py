@@ -20,6 +20,11 @@ with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
+        [--brdf ggx|beckmann]
+
+``--brdf beckmann`` measures Cycles' Beckmann lobe (sampled through GGX's
+visible normals, bake.sampling_runtime) and writes its own table,
+bake/hybrid_errors_beckmann.json, which a Beckmann Hybrid blends with.
 
 By default both methods see the probe without its small bright lights, which
 are shaded exactly (bake.probe_lights, Probe Lights on: the bake's default);
@@ -85,8 +90,17 @@ def runtime_twin(cube, spec, budget, normals, views, lights=()):
     return sampling_runtime.shade(atlas, meta, normals, views)
 
 
+#: The lobe kind measured (``--brdf``): "ggx" (the committed bake/hybrid_errors.json)
+#: or "beckmann" (bake/hybrid_errors_beckmann.json).
+KIND = ["ggx"]
+
+
+def _spec(roughness):
+    return f"{KIND[0]}:roughness={roughness}"
+
+
 def _widths(roughness):
-    fit = lobes.fit(f"ggx:roughness={roughness}", slices=16)
+    fit = lobes.fit(_spec(roughness), slices=16)
     widths = [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
               for s in fit.slices for lobe in s.lobes]
     widths.append(resolution.ggx_half_width(roughness ** 2))
@@ -95,8 +109,8 @@ def _widths(roughness):
 
 def auto_face(roughness):
     """The probe face glossy.capture_probes' lobe rule gives a Hybrid material of
-    isotropic GGX ``roughness`` (operators.capture_probes: the narrowest of the 3D
-    fit's lobes and the sampled lobe)."""
+    isotropic GGX (or KIND) ``roughness`` (operators.capture_probes: the narrowest
+    of the 3D fit's lobes and the sampled lobe)."""
     return resolution.choose_probe_face(_widths(roughness), maximum=4096).value
 
 
@@ -123,7 +137,7 @@ def renders(name, directory, size=64, face="auto", with_lights=False):
     mu = np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0)
     out = {}
     for roughness in ROUGHNESS:
-        spec = f"ggx:roughness={roughness}"
+        spec = _spec(roughness)
         model = brdf.parse(spec)
         size_px = auto_face(roughness) if face == "auto" else \
             world_face(image[..., :3], roughness) if face == "world" else int(face)
@@ -185,7 +199,7 @@ def table_from(results, names, face="auto"):
                               if face == "auto" else
                               {f"{n} {r}": FACES_USED.get((n, r)) for n in names
                                for r in ROUGHNESS} if face == "world" else face,
-                              "brdf": "ggx (isotropic)"}, BUDGETS)
+                              "brdf": f"{KIND[0]} (isotropic)"}, BUDGETS)
 
 
 def relative_rms(estimate, truth):
@@ -195,14 +209,18 @@ def relative_rms(estimate, truth):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true",
-                        help="store the pooled table as bake/hybrid_errors.json")
+                        help="store the pooled table as bake/hybrid_errors.json (or the "
+                             "--brdf's own)")
     parser.add_argument("--face", default="auto",
                         help="probe face size, or auto: each roughness at the face Auto "
                              "captures for it (the committed table)")
+    parser.add_argument("--brdf", default="ggx", choices=hybrid.KINDS,
+                        help="the lobe measured (its own table: bake.hybrid.table_path)")
     parser.add_argument("--no-lights", action="store_true",
                         help="the whole probe in both methods (Probe Lights off); the "
                              "default takes the probe's lights out as the bake does")
     args = parser.parse_args()
+    KIND[0] = args.brdf
     directory = hdri_directory()
     names = sorted(p.stem for p in directory.glob("*.exr"))
     results = {}
@@ -224,8 +242,9 @@ def main():
                                                      strict=True))
                   + "   w " + " ".join(f"{w:.2f}" for w in table.weight[s, i]))
     if args.write:
-        hybrid.TABLE_PATH.write_text(json.dumps(table.to_json(), indent=1) + "\n")
-        print(f"wrote {hybrid.TABLE_PATH}")
+        path = hybrid.table_path(args.brdf)
+        path.write_text(json.dumps(table.to_json(), indent=1) + "\n")
+        print(f"wrote {path}")
     print("\nwhole sphere, relative RMS (weights measured without the HDRI itself); "
           "'fixed w' is the hybrid weighted as for 19 samples:")
     print(f"{'samples':>7s} {'hdri':10s} {'rough':>5s} {'map':>6s} {'regular':>7s} "

@@ -14,7 +14,7 @@ own noise (from the two seeds). One sphere per run, so every figure sees the
 same pixels.
 
     .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
-        [--eevee 4] [--probe 64|auto] [--hdri sunset ...]
+        [--eevee 4] [--probe 64|auto] [--hdri sunset|PATH.exr ...]
         [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples;
                                         hybrid-nolights: Probe Lights off)
         [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
@@ -37,13 +37,20 @@ from tools.bpy_wheel import studio_lights  # noqa: E402
 CASES = ("3d:0.3:0:19", "runtime:0.3:0:19", "hybrid:0.3:0:19", "runtime:0.3:0.8:14")
 
 
+def hdri_path(hdri):
+    """A bundled HDRI's stem ("night") or a path to any lat-long .exr."""
+    return Path(hdri).resolve() if hdri.endswith(".exr") else studio_lights() / f"{hdri}.exr"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--cycles", type=int, default=256, help="Cycles samples per seed")
     parser.add_argument("--eevee", type=int, default=4, help="EEVEE samples")
     parser.add_argument("--probe", default="64", help="probe face size, or auto")
-    parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
+    parser.add_argument("--hdri", action="append",
+                        help="bundled HDRI stem or a path to a lat-long .exr (repeatable; "
+                             "default all bundled)")
     parser.add_argument("--case", action="append",
                         help="method:roughness:anisotropy:samples (repeatable)")
     args = parser.parse_args()
@@ -63,7 +70,7 @@ def main():
                                    (item.split("=") for item in principled[0].split(","))})
             start = time.perf_counter()
             process = subprocess.run(
-                [sys.executable, str(script), str(studio_lights() / f"{hdri}.exr"), str(work),
+                [sys.executable, str(script), str(hdri_path(hdri)), str(work),
                  str(args.size), str(args.cycles), str(args.eevee), json.dumps(spheres), "0",
                  "1", args.probe, str(work / "result.json")],
                 cwd=script.parent, capture_output=True, text=True)
@@ -73,11 +80,12 @@ def main():
                 figures = result["S"]["figures"]
             except (OSError, KeyError, ValueError):
                 tail = (process.stderr or process.stdout).strip().splitlines()[-1:]
-                print(f"{hdri:10s} {case:22s} failed: {tail}", flush=True)
+                print(f"{Path(hdri).stem:10s} {case:22s} failed: {tail}", flush=True)
                 continue
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
             face = re.search(r"(\d+) px", result["S"].get("probe_reason", ""))
-            print(f"{hdri:10s} {case:22s} {rms['eevee_glossy']:7.3f} {rms['eevee_native']:7.3f} "
+            print(f"{Path(hdri).stem:10s} {case:22s} {rms['eevee_glossy']:7.3f} "
+                  f"{rms['eevee_native']:7.3f} "
                   f"{rms.get('eevee_native_careful', float('nan')):7.3f} "
                   f"{rms['reference']:9.3f} {figures['cycles_noise']:6.3f} {seconds:6.0f} "
                   f"{face.group(1) if face else '?':>5s}", flush=True)

@@ -166,15 +166,16 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     spec: bpy.props.StringProperty(name="Spec", description="bake.brdf spec (Custom Spec)",
                                    default="ggx:roughness=0.3")
     method: bpy.props.EnumProperty(
-        name="Method", items=[("auto", "Auto", "The Hybrid for an isotropic GGX lobe, Runtime "
-                               "Sampling for an anisotropic one, the 3D map otherwise "
-                               "(glossy_addon.method_choice; the panel says which and why)"),
+        name="Method", items=[("auto", "Auto", "The Hybrid for an isotropic GGX or Beckmann "
+                               "lobe, Runtime Sampling for an anisotropic one, the 3D map "
+                               "otherwise (glossy_addon.method_choice; the panel says which "
+                               "and why)"),
                               ("3d", "3D Map", "Kautz-McCool 3D map (K slices)"),
                               ("2d", "2D Lobe", "One lobe-filtered map times k(theta_o)"),
                               ("split-sum", "Split Sum", "GGX MIP chain + DFG (GGX only)"),
                               ("runtime", "Runtime Sampling", "Regular sampling of the GGX "
-                               "lobe per pixel from pre-blurred probe levels (Kurt et al.): "
-                               "anisotropic lobes, exact at grazing views"),
+                               "or Beckmann lobe per pixel from pre-blurred probe levels "
+                               "(Kurt et al.): anisotropic lobes, exact at grazing views"),
                               ("hybrid", "Hybrid", "3D map and runtime sampling blended per "
                                "pixel by their measured errors (bake.hybrid); runtime "
                                "sampling alone for anisotropic lobes")],

@@ -14,6 +14,10 @@ a loop: the shader's size and compile time do not grow with the sample count
 repeat zone, each light's constants read from its atlas texels and shaded by
 one shared group (``Glossy Probe Light v3``). nodes.build_lookup attaches
 it (methods Runtime Sampling and Hybrid); :func:`hybrid_value` blends it with the 3D map.
+A Cycles Beckmann lobe (the atlas meta's ``kind``) has its own sample and light
+groups (the names end in " beckmann"): the same GGX visible normals, weighed by
+Beckmann's D over GGX's and Cycles' rational Beckmann Lambda
+(bake.sampling_runtime's module doc); the GGX groups are unchanged.
 """
 
 import math
@@ -36,6 +40,30 @@ def _lambda(b, w, ax, ay):
     ratio = b.math("DIVIDE", top, b.math("MAXIMUM", b.math("MULTIPLY", z, z), 1e-12))
     return b.math("MULTIPLY", b.math("SUBTRACT", b.math("SQRT", b.math("ADD", ratio, 1.0)),
                                      1.0), 0.5)
+
+
+def _lambda_beckmann(b, w, ax, ay):
+    """Cycles' rational Beckmann Smith Lambda (bake.brdf.microfacet.beckmann_lambda_cycles):
+    with s = (ax^2 wx^2 + ay^2 wy^2) / wz^2 and a = 1 / sqrt(s), (1 - 1.259 a + 0.396 a^2)
+    / (3.535 a + 2.181 a^2) where s >= 0.39, else 0 (a taken at s >= 0.39 only, so no
+    infinity meets the zero)."""
+    x, y, z = b.separate(w)
+    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), ax * ax),
+                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), ay * ay))
+    ratio = b.math("DIVIDE", top, b.math("MAXIMUM", b.math("MULTIPLY", z, z), 1e-12))
+    a = b.math("DIVIDE", 1.0, b.math("SQRT", b.math("MAXIMUM", ratio, 0.39)))
+    a2 = b.math("MULTIPLY", a, a)
+    value = b.math("DIVIDE", b.math("ADD", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", a, 1.259)),
+                                    b.math("MULTIPLY", a2, 0.396)),
+                   b.math("ADD", b.math("MULTIPLY", a, 3.535), b.math("MULTIPLY", a2, 2.181)))
+    return b.math("MULTIPLY", value, b.math("SUBTRACT", 1.0, b.math("LESS_THAN", ratio, 0.39)))
+
+
+def _kind_suffix(kind):
+    """Group-name suffix of a lobe kind: none for GGX (the groups it always had)."""
+    if kind not in ("ggx", "beckmann"):
+        raise ValueError(f"no runtime-sampling nodes for a {kind} lobe")
+    return "" if kind == "ggx" else f" {kind}"
 
 
 def frame_group(ax, ay):
@@ -96,12 +124,15 @@ def frame_group(ax, ay):
     return tree
 
 
-def sample_group(ax, ay):
+def sample_group(ax, ay, kind="ggx"):
     """Per-material group: one sample's world Direction, Weight (prob G2, 0 when
     invalid) and MIP Level (clamped to [0, Levels - 1]) from its disk point P1, P2
     (turned by TurnCos, TurnSin) and cell probability Prob
-    (bake.sampling_runtime's module doc)."""
-    name = f"{SAMPLE_GROUP} {ax:.6g} {ay:.6g}"
+    (bake.sampling_runtime's module doc). ``kind`` "beckmann": the GGX visible
+    normal weighs prob G2_B D_B / D_GGX (bake.sampling_runtime.proposal_ratio),
+    Beckmann's Lambda of Wo computed here (the input Lambda stays GGX's, the
+    proposal's, for the footprint)."""
+    name = f"{SAMPLE_GROUP} {ax:.6g} {ay:.6g}{_kind_suffix(kind)}"
     names = ["X", "Y", "N", "Wo", "Vh", "T1", "T2"]
     tree = _group(name, [(s, _VECTOR) for s in names]
                   + [(s, _FLOAT) for s in ("S", "Lambda", "P1", "P2", "Prob", "Bias", "Levels",
@@ -133,17 +164,27 @@ def sample_group(ax, ay):
     wix, wiy, wiz = b.separate(wi)
     valid = b.math("MULTIPLY", b.math("GREATER_THAN", wiz, 0.0),
                    b.math("GREATER_THAN", wo_h, 0.0))
-    g2 = b.math("DIVIDE", 1.0, b.math("ADD", b.math("ADD", _lambda(b, wi, ax, ay), i["Lambda"]),
-                                      1.0))
-    b.link(b.math("MULTIPLY", valid, b.math("MULTIPLY", i["Prob"], g2)), outputs["Weight"])
-    world = b.vec("ADD", b.vec("ADD", b.vec("SCALE", i["X"], scale=wix),
-                               b.vec("SCALE", i["Y"], scale=wiy)),
-                  b.vec("SCALE", i["N"], scale=wiz))
-    b.link(world, outputs["Direction"])
     hx, hy, hz = b.separate(h)
     t = b.math("ADD", b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", hx, hx), 1 / ax ** 2),
                              b.math("MULTIPLY", b.math("MULTIPLY", hy, hy), 1 / ay ** 2)),
                b.math("MULTIPLY", hz, hz))
+    if kind == "ggx":
+        g2 = b.math("DIVIDE", 1.0, b.math("ADD", b.math("ADD", _lambda(b, wi, ax, ay),
+                                                        i["Lambda"]), 1.0))
+        weight = b.math("MULTIPLY", i["Prob"], g2)
+    else:
+        g2 = b.math("DIVIDE", 1.0, b.math("ADD", b.math("ADD", _lambda_beckmann(b, wi, ax, ay),
+                                                        _lambda_beckmann(b, wo, ax, ay)), 1.0))
+        # D_B / D_GGX = exp(1 - q) q^2, q = t / hz^2 = 1 + tau
+        q = b.math("DIVIDE", t, b.math("MAXIMUM", b.math("MULTIPLY", hz, hz), 1e-12))
+        ratio = b.math("MULTIPLY", b.math("EXPONENT", b.math("SUBTRACT", 1.0, q)),
+                       b.math("MULTIPLY", q, q))
+        weight = b.math("MULTIPLY", b.math("MULTIPLY", i["Prob"], g2), ratio)
+    b.link(b.math("MULTIPLY", valid, weight), outputs["Weight"])
+    world = b.vec("ADD", b.vec("ADD", b.vec("SCALE", i["X"], scale=wix),
+                               b.vec("SCALE", i["Y"], scale=wiy)),
+                  b.vec("SCALE", i["N"], scale=wiz))
+    b.link(world, outputs["Direction"])
     _, _, woz = b.separate(wo)
     # Omega = prob 4 wo_z (1 + Lambda_o) / D(h), D = 1 / (pi ax ay t^2)
     omega = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", i["Prob"], woz),
@@ -164,14 +205,15 @@ def sample_group(ax, ay):
 LIGHT_GROUP = f"Glossy Probe Light v{GROUP_VERSION}"
 
 
-def light_group(ax, ay):
+def light_group(ax, ay, kind="ggx"):
     """Per-material group: one probe light's radiance before the scale rho / A_ss
     (bake.sampling_runtime.light_radiance): inputs the lobe frame X, Y, N (world),
     Wo and the view's Lambda (from :func:`frame_group`), the light's world
     Direction and Irradiance (RGB as a vector) and the widened alphas BX, BY;
     output Radiance = D_B(h) / (4 wo_z (1 + Lambda_o + Lambda(l))) E, zero where
-    the light is below the surface."""
-    name = f"{LIGHT_GROUP} {ax:.6g} {ay:.6g}"
+    the light is below the surface (D_B: the lobe's D at the widened alphas).
+    ``kind`` "beckmann": Beckmann's D, and its Lambdas (of Wo computed here)."""
+    name = f"{LIGHT_GROUP} {ax:.6g} {ay:.6g}{_kind_suffix(kind)}"
     tree = _group(name, [(s, _VECTOR) for s in ("X", "Y", "N", "Wo", "Direction",
                                                   "Irradiance")]
                   + [(s, _FLOAT) for s in ("Lambda", "BX", "BY")], [("Radiance", _VECTOR)])
@@ -193,13 +235,25 @@ def light_group(ax, ay):
     t = b.math("ADD", b.math("ADD", b.math("DIVIDE", b.math("MULTIPLY", hx, hx), bx2),
                              b.math("DIVIDE", b.math("MULTIPLY", hy, hy), by2)),
                b.math("MULTIPLY", hz, hz))
-    # D_B = 1 / (pi bx by t^2); the value's denominator 4 wo_z (1 + L_o + L_i) pi bx by t^2
     _, _, woz = b.separate(wo)
-    denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
-        "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", t, t)), 4.0 * math.pi),
-        b.math("MULTIPLY", woz, b.math("ADD", b.math("ADD", i["Lambda"], 1.0),
-                                       _lambda(b, wi, ax, ay))))
-    value = b.math("DIVIDE", valid, b.math("MAXIMUM", denominator, 1e-30))
+    if kind == "ggx":
+        # D_B = 1 / (pi bx by t^2); the denominator 4 wo_z (1 + L_o + L_i) pi bx by t^2
+        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
+            "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", t, t)), 4.0 * math.pi),
+            b.math("MULTIPLY", woz, b.math("ADD", b.math("ADD", i["Lambda"], 1.0),
+                                           _lambda(b, wi, ax, ay))))
+        value = b.math("DIVIDE", valid, b.math("MAXIMUM", denominator, 1e-30))
+    else:
+        # D_B = exp(1 - t / hz^2) / (pi bx by hz^4) (t / hz^2 = 1 + tau), over
+        # 4 wo_z (1 + L_o + L_i) with Beckmann's Lambdas
+        hz2 = b.math("MAXIMUM", b.math("MULTIPLY", hz, hz), 1e-12)
+        numerator = b.math("EXPONENT", b.math("SUBTRACT", 1.0, b.math("DIVIDE", t, hz2)))
+        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
+            "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", hz2, hz2)), 4.0 * math.pi),
+            b.math("MULTIPLY", woz, b.math("ADD", b.math(
+                "ADD", _lambda_beckmann(b, wo, ax, ay), 1.0), _lambda_beckmann(b, wi, ax, ay))))
+        value = b.math("DIVIDE", b.math("MULTIPLY", valid, numerator),
+                       b.math("MAXIMUM", denominator, 1e-30))
     b.link(b.vec("SCALE", i["Irradiance"], scale=value), outputs["Radiance"])
     return tree
 
@@ -213,7 +267,7 @@ def _lights_value(b, image, meta, frame):
     if not lights:
         return None
     ax, ay = float(meta["ax"]), float(meta["ay"])
-    group = light_group(ax, ay)
+    group = light_group(ax, ay, meta.get("kind", "ggx"))
     state, result, after = _repeat_zone(b, len(lights), [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
     first = b.math("MULTIPLY", state["Iteration"], 3.0)
     direction, irradiance, alphas = (
@@ -303,8 +357,8 @@ def runtime_parts(b, image, meta, normal, view, tangent):
 
     def sample(index):
         p1, p2, prob = _sample_data(b, image, meta, index)
-        return _group_node(b, sample_group(ax, ay), {**shared, **constants, "P1": p1,
-                                                     "P2": p2, "Prob": prob})
+        return _group_node(b, sample_group(ax, ay, meta.get("kind", "ggx")),
+                           {**shared, **constants, "P1": p1, "P2": p2, "Prob": prob})
 
     state, result, after = _repeat_zone(b, count, [("FLOAT", "Strongest", 0.0)])
     b.link(b.math("MAXIMUM", state["Strongest"], sample(state["Iteration"])["Weight"]),

@@ -154,14 +154,16 @@ def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=(
     """The runtime-sampling texture (bake.sampling_runtime.pack) of ``rows``
     lat-long rows as steps (no bpy: runs on a worker thread): one message, then
     ((image, meta), reason); a Hybrid's meta carries its w(mu) knots
-    (bake.hybrid.weight_curve at the lobe's roughness and the pattern's sample count).
+    (bake.hybrid.weight_curve at the lobe's roughness and the pattern's sample count,
+    from the table of the lobe's kind: GGX or Beckmann).
     ``lights``: the probe's lights (bake.probe_lights) when ``probe`` is the residual."""
     yield 0.0, f"pre-blurring {rows}-row probe levels and the albedo table for runtime sampling"
     image, meta = sampling_runtime.pack(probe, spec, layout=layout, budget=samples, height=rows,
                                         lights=lights)
     if for_hybrid:
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
-                                               samples=len(meta["prob"]))
+                                               samples=len(meta["prob"]),
+                                               kind=meta.get("kind", "ggx"))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
     reason = (f"runtime sampling: {len(meta['prob'])} samples over {meta['levels']} levels of "
               f"{rows} rows ({why})")

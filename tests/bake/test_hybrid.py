@@ -13,8 +13,11 @@ from bake.errors import BakeError
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
-def test_the_committed_table_is_whole_and_its_weights_interpolate_back():
-    table = hybrid.load_table()
+@pytest.mark.parametrize("kind", hybrid.KINDS)
+def test_the_committed_table_is_whole_and_its_weights_interpolate_back(kind):
+    """GGX's table and Beckmann's (benchmarks/hybrid.py --brdf beckmann)."""
+    table = hybrid.load_table(kind=kind)
+    assert table.meta["brdf"].startswith(kind)
     budgets, roughness, bins = len(table.budgets), len(table.roughness), len(table.edges) - 1
     assert table.weight.shape == table.regular.shape == (budgets, roughness, bins)
     assert table.map.shape == (roughness, bins)
@@ -71,6 +74,8 @@ def test_a_table_of_one_budget_still_reads(tmp_path):
 def test_a_missing_table_is_one_clear_error(tmp_path):
     with pytest.raises(BakeError, match="benchmarks/hybrid.py"):
         hybrid.load_table(tmp_path / "nothing.json")
+    with pytest.raises(BakeError, match="no hybrid table for a ward lobe"):
+        hybrid.load_table(kind="ward")
 
 
 def _environments():

@@ -110,6 +110,7 @@ def test_nothing_to_take_and_bad_input():
     ("ggx:roughness=0.3", (1.0, 1.0, 1.0)),
     ("ggx:roughness=0.3,anisotropy=0.8,rotation=0.1", (1.0, 1.0, 1.0)),
     ("ggx:roughness=0.2,color=0.8/0.5/0.2", (0.8, 0.5, 0.2)),
+    ("beckmann:roughness=0.3,anisotropy=0.5,color=0.9/0.7/0.4", (0.9, 0.7, 0.4)),
 ])
 def test_the_light_term_is_the_brdf_times_the_irradiance(spec, tint):
     """A point light (spread 0) through bake.sampling_runtime.light_radiance equals

@@ -116,7 +116,8 @@ def test_taps_along_each_footprint_cut_the_line_lobe_s_error():
 
 
 @pytest.mark.parametrize("spec", [ISOTROPIC, ANISOTROPIC, "principled_metallic:roughness=0.4",
-                                  "principled:roughness=0.4,metallic=0,diffuse=0"])
+                                  "principled:roughness=0.4,metallic=0,diffuse=0",
+                                  "beckmann:roughness=0.3"])
 def test_a_constant_environment_returns_the_albedo(spec):
     """Eq. 18: a constant environment L comes back as rho(wo) L; the table holds rho
     on a 32 x 9 grid, so its bilinear interpolation is the only error: measured
@@ -180,8 +181,10 @@ def test_the_samples_are_texels_of_the_atlas():
 
 def test_bad_input_is_refused():
     env = sampling.spots_environment(8)
-    with pytest.raises(BakeError, match="GGX"):
-        sampling_runtime.pack(env, "beckmann:roughness=0.3")
+    with pytest.raises(BakeError, match="GGX lobes .* and Cycles' Beckmann"):
+        sampling_runtime.pack(env, "ashikhmin_shirley:roughness=0.3")
+    with pytest.raises(BakeError, match="Beckmann"):  # a Kurt lobe is not Cycles' Beckmann
+        sampling_runtime.pack(env, "kurt:ks=0.5,mx=0.3,my=0.3,f0=0.5,alpha=0.5")
     with pytest.raises(BakeError, match="no sampler"):
         sampling_runtime.pack(env, "ward:alpha=0.2")
     with pytest.raises(BakeError, match="beyond the largest pattern"):
@@ -242,3 +245,43 @@ def test_the_default_mip_bias_follows_the_lobe_width():
             errors.append(np.sqrt(np.mean((out - truth) ** 2) / np.mean(truth ** 2)))
         assert meta["bias"] == 0.0
         assert errors[0] < 0.8 * errors[1], (name, errors)
+
+
+def _sky_gradient(face=16):
+    from bake.envmap import get_layout
+
+    cube = get_layout("cube")
+    directions = cube.texel_directions(cube.shape(face))
+    return (0.2 + np.clip(directions[..., 2], 0, None)[..., None] * np.array([1.0, 2.0, 3.0])
+            + 0.5 * np.clip(directions[..., 0], 0, None)[..., None]).astype(np.float32)
+
+
+@pytest.mark.parametrize("spec", ["beckmann:roughness=0.3",
+                                  "beckmann:roughness=0.5,anisotropy=0.6,rotation=0.2"])
+def test_weighted_ggx_samples_estimate_a_beckmann_lobe(spec):
+    """A Beckmann lobe is sampled through GGX's visible normals of the same alphas,
+    each sample weighed by D_Beckmann / D_GGX and Beckmann's G2
+    (sampling_runtime.proposal_ratio). On a smooth sky, at views with n.v >= 0.3
+    (below that both lobes share runtime sampling's grazing floor, the Hybrid's
+    map's side of the blend), 61 samples come close to the brute-force integral
+    of the Beckmann BRDF, and closer than the same samples weighed as GGX.
+    Measured: 1.6% / 1.1% against 3.1% / 5.0% (GGX's own lobes on this sky: 1.9%
+    / 0.4%); allowed 2.5% and 0.6 of the unweighted error."""
+    env = _sky_gradient()
+    n, v, t = _pixels(600, seed=4)
+    keep = np.sum(n * v, axis=1) >= 0.3
+    n, v, t = n[keep], v[keep], t[keep]
+    model = brdf.parse(spec)
+    from bake import reference
+
+    truth = _luminance(reference.render(model, env, "cube", n, v, tangents=t))
+    atlas, meta = sampling_runtime.pack(env, spec, budget=61)
+    assert meta["kind"] == "beckmann"
+
+    def error(estimate):
+        return float(np.sqrt(np.mean((_luminance(estimate) - truth) ** 2) / np.mean(truth ** 2)))
+
+    weighted = error(sampling_runtime.shade(atlas, meta, n, v, t))
+    as_ggx = error(sampling_runtime.shade(atlas, {**meta, "kind": "ggx"}, n, v, t))
+    assert weighted < 0.025, (weighted, as_ggx)
+    assert weighted < 0.6 * as_ggx, (weighted, as_ggx)

@@ -43,31 +43,32 @@ def test_a_brushed_sphere_is_at_most_half_native_eevees_error(brushed):
 
 
 def test_bad_input_is_refused_or_falls_back_with_a_note(brushed):
-    outcome, report = brushed["beckmann"]["bake"], brushed["reports"][0]
-    assert outcome == ["CANCELLED"] and "GGX" in report and "Beckmann" in report, report
-    assert brushed["beckmann"]["bake_path"] == ""
-    assert not [name for name in brushed["beckmann"]["files"] if "Beckmann" in name]
+    outcome, report = brushed["no_sampler"]["bake"], brushed["reports"][0]
+    assert outcome == ["CANCELLED"] and "no sampler" in report and "ward" in report, report
+    assert brushed["no_sampler"]["bake_path"] == ""
+    assert not [name for name in brushed["no_sampler"]["files"] if "Ward" in name]
     no_uv = brushed["no_uv"]
     assert no_uv["bake"] == no_uv["attach"] == ["FINISHED"]
     assert no_uv["tangents"] == [["RADIAL", "Z"]]
     assert "no UV map 'UVMap'" in no_uv["note"] and "radial about Z" in no_uv["note"]
 
 
-def test_auto_chooses_the_hybrid_only_for_an_isotropic_ggx_lobe(brushed):
+def test_auto_chooses_the_hybrid_only_for_an_isotropic_sampled_lobe(brushed):
     """glossy_addon.method_choice's rule, on each kind of BRDF: the Hybrid for an
-    isotropic GGX lobe (a GGX BSDF, the default Principled BSDF), Runtime
-    Sampling for an anisotropic one, the 3D map for lobes the nodes cannot
-    sample (Beckmann, Ward, a Principled BSDF with a coat), for a roughness
-    texture and for a fixed map size too small for the runtime texture; a
-    method set by hand is kept, with no reason shown."""
+    isotropic GGX or Beckmann lobe (a GGX BSDF, the default Principled BSDF, a
+    Beckmann BSDF), Runtime Sampling for an anisotropic one, the 3D map for
+    lobes the nodes cannot sample (Ward, a Principled BSDF with a coat), for a
+    roughness texture and for a fixed map size too small for the runtime
+    texture; a method set by hand is kept, with no reason shown."""
     choices = brushed["choices"]
-    assert choices["ggx"][0] == choices["principled"][0] == "hybrid"
+    assert choices["ggx"][0] == choices["principled"][0] == choices["beckmann"][0] == "hybrid"
+    assert "Beckmann" in choices["beckmann"][1]
     assert choices["ggx_anisotropic"][0] == "runtime"
-    for label in ("beckmann", "ward", "principled_coat", "textured", "ggx_fixed_8"):
+    for label in ("ward", "principled_coat", "textured", "ggx_fixed_8"):
         assert choices[label][0] == "3d", (label, choices[label])
         assert choices[label][1].startswith("3D Map: "), choices[label]
     assert "roughness texture" in choices["textured"][1]
-    assert "beckmann" in choices["beckmann"][1]
+    assert "ward" in choices["ward"][1]
     for label in ("ggx", "ggx_anisotropic", "beckmann", "principled"):
         assert choices[f"{label}_set"] == ["3d", ""]
 
@@ -106,3 +107,48 @@ def test_the_default_method_bakes_the_hybrid_and_beats_the_3d_map(auto_and_map):
     errors = {name: entry["figures"]["methods"]["eevee_glossy"]["relative_rms"]
               for name, entry in auto_and_map.items()}
     assert errors["auto"] < 0.9 * errors["3d"], errors
+
+
+@pytest.fixture(scope="module")
+def beckmann(tmp_path_factory, hdri_dir):
+    """Three isolated spheres of Cycles' Beckmann in sunset.exr: roughness 0.3 on the
+    default method (Auto: the Hybrid) and on the 3D map (what Auto chose for
+    Beckmann before runtime sampling took its lobe), and brushed (roughness 0.3,
+    anisotropy 0.8, radial tangent about Z) on Runtime Sampling with 14 samples;
+    captured, baked, attached and validated together at 64 px (Cycles 2 x 64 spp,
+    EEVEE 4 samples)."""
+    work = tmp_path_factory.mktemp("beckmann_method")
+    return run_script("runtime_validate.py", hdri_dir / "sunset.exr", work, 64, 64, 4,
+                      '[["Plain", "beckmann/auto", 0.3, 0.0, 0.0], '
+                      '["Map", "beckmann/3d", 0.3, 0.0, 0.0], '
+                      '["Brushed", "beckmann/runtime", 0.3, 0.8, 0.0, 14]]', 0,
+                      work / "result.json", timeout=900)
+
+
+def test_a_beckmann_material_is_sampled_at_runtime_and_beats_native_eevee(beckmann):
+    """EEVEE renders Beckmann as GGX and an anisotropic lobe as an isotropic one;
+    Glossy samples Beckmann's lobe through GGX's visible normals
+    (bake.sampling_runtime). Auto bakes the Hybrid for the isotropic sphere (with
+    its own table, bake/hybrid_errors_beckmann.json), which is below the 3D map
+    Auto chose for Beckmann before; the brushed sphere is at most half of native
+    EEVEE's error (the acceptance's bound for an anisotropic material).
+    Measured in this three-sphere frame: Hybrid 3.7% against the 3D map's 4.7%,
+    brushed 4.0% against native's 50.1%. (Against native on the isotropic
+    sphere there is no margin to assert here: EEVEE's sun extraction shades
+    sunset's sun as a lamp, 3.8%, and Cycles' 64 spp noise is most of both;
+    at 128 px and 2 x 256 spp see README "Stop 37".)"""
+    for name in ("Plain", "Map", "Brushed"):
+        entry = beckmann[name]
+        assert entry["capture"] == entry["bake"] == entry["attach"] == ["FINISHED"], entry
+    errors, natives = {}, {}
+    for name in ("Plain", "Map", "Brushed"):
+        methods = beckmann[name]["figures"]["methods"]
+        errors[name] = methods["eevee_glossy"]["relative_rms"]
+        natives[name] = min(methods[m]["relative_rms"] for m in ("eevee_native",
+                                                                 "eevee_native_careful")
+                            if m in methods)
+    assert beckmann["Plain"]["method_used"] == "hybrid"
+    assert beckmann["Plain"]["runtime_path"].endswith("_hybrid_runtime.exr")
+    assert beckmann["Brushed"]["method_used"] == "runtime"
+    assert errors["Plain"] < errors["Map"], (errors, natives)
+    assert errors["Brushed"] <= 0.5 * natives["Brushed"], (errors, natives)

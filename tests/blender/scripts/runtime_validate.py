@@ -8,13 +8,14 @@ another), each with its own material and World Only probe (64 px faces),
 baked, attached and validated together (no scene camera: validation frames
 them). SPHERES is a JSON list of [name, method, roughness, anisotropy,
 rotation(, samples(, {Principled BSDF input: value}))] (a method ending in
-"-nolights" has Probe Lights off); with the last, the
+"-nolights" has Probe Lights off; "beckmann/hybrid": a model other than GGX
+before the slash); with the last, the
 material is From Material, a Principled BSDF with those inputs; the default
 is one brushed sphere (GGX 0.3, anisotropy 0.8, Runtime Sampling, tangent
 radial about Z). Writes the validation report's
 figures per sphere, the operators' reports and the attached node count.
 With CHECKS=1 it first tries bad input on a sphere of its own, removed after:
-a Beckmann lobe with Runtime Sampling (refused: no GGX sampler) and a UV-map
+a Ward lobe with Runtime Sampling (refused: no sampler) and a UV-map
 tangent on a mesh without UV maps (attached radially, with a warning).
 With CAMERA=1 the scene gets a camera (bake.reference.sphere_buffers': at
 (0, -6, 0) looking along +Y, 90 mm on a 36 mm sensor) that validation renders
@@ -65,14 +66,15 @@ if checks:
     probe_obj.glossy.probe_source = "WORLD"
     probe_obj.glossy.probe_size_mode = "FIXED"
     probe_obj.glossy.probe_resolution = 16
-    bad = bpy.data.materials.new("Beckmann")
-    bad.glossy.model, bad.glossy.method, bad.glossy.anisotropy = "beckmann", "runtime", 0.5
+    bad = bpy.data.materials.new("Ward")
+    bad.glossy.model, bad.glossy.method = "ward", "runtime"
     probe_obj.data.materials.append(bad)
     run(bpy.ops.glossy.capture_probes)
-    result["beckmann"] = {"bake": run(bpy.ops.glossy.bake_materials),
-                          "bake_path": bad.glossy.bake_path,
-                          "files": sorted(p.name for p in (workdir / "glossy").iterdir())}
-    bad.glossy.model, bad.glossy.tangent_type, bad.glossy.tangent_uv_map = "ggx", "UV_MAP", "UVMap"
+    result["no_sampler"] = {"bake": run(bpy.ops.glossy.bake_materials),
+                            "bake_path": bad.glossy.bake_path,
+                            "files": sorted(p.name for p in (workdir / "glossy").iterdir())}
+    bad.glossy.model, bad.glossy.anisotropy = "ggx", 0.5  # a lobe that needs a tangent
+    bad.glossy.tangent_type, bad.glossy.tangent_uv_map = "UV_MAP", "UVMap"
     while probe_obj.data.uv_layers:
         probe_obj.data.uv_layers.remove(probe_obj.data.uv_layers[0])
     result["no_uv"] = {"bake": run(bpy.ops.glossy.bake_materials),
@@ -131,9 +133,11 @@ for index, (name, method, roughness, anisotropy, rotation, *extra) in enumerate(
         obj.glossy.probe_resolution = int(probe_face)
     material = bpy.data.materials.new(name)
     settings = material.glossy
-    # "hybrid-nolights": the method with Probe Lights off (bake.probe_lights).
+    # "hybrid-nolights": the method with Probe Lights off (bake.probe_lights);
+    # "beckmann/hybrid": the Material panel's model before the slash (default GGX).
+    model, _, method = method.rpartition("/")
     settings.probe_lights = not method.endswith("-nolights")
-    settings.model, settings.method = "ggx", method.removesuffix("-nolights")
+    settings.model, settings.method = model or "ggx", method.removesuffix("-nolights")
     settings.roughness, settings.anisotropy, settings.rotation = roughness, anisotropy, rotation
     if principled is not None:  # From Material: a Principled BSDF with these inputs
         settings.model = "MATERIAL"
