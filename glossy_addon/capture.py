@@ -33,11 +33,44 @@ def face_rotation(face: int) -> Matrix:
     return Matrix(rotation.tolist())
 
 
+def lookup_truths(scene, hidden=()):
+    """[(slot, lookup material, truth material)] for the material slots of the objects
+    ``scene`` renders (``hidden`` left out) that hold an attached Glossy lookup
+    (``glossy.original`` set by the first attach), each with its true BSDF
+    (glossy_addon.validation.truth_material, its tangent as the object gives it);
+    lookups Cycles has no BSDF for are left out (their lookup is rendered)."""
+    from .materials import effective_tangent
+    from .validation import truth_material
+
+    skip = {obj.name for obj in hidden}
+    truths, out = {}, []
+    for obj in scene.objects:
+        if obj.name in skip or obj.hide_render:
+            continue
+        for slot in getattr(obj, "material_slots", ()):
+            material = slot.material
+            if material is None or material.glossy.original is None:
+                continue
+            key = (material.name, effective_tangent(material, obj)[0])
+            if key not in truths:
+                truths[key] = truth_material(material, key[1])[0]
+            if truths[key] is not None:
+                out.append((slot, material, truths[key]))
+    return out
+
+
 class CubeCapture:
     """Renders the six faces at a point; restores every setting it touches.
 
     Use as a context manager; ``render_face(face)`` returns (N, N, 3) float32
     in cube-face orientation (row 0 at the top, s along columns).
+
+    With Cycles, other objects that show a Glossy lookup are rendered with their
+    true BSDF for the capture (:func:`lookup_truths`), as Cycles would see them:
+    a lookup is an EEVEE material (an Emission of the baked reflection), and
+    Cycles' SVM cannot compile the Runtime Sampling and Hybrid ones (out of
+    stack space, so the object came out wrong in the probe). EEVEE captures see
+    the lookups, as EEVEE renders the scene.
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
@@ -94,6 +127,9 @@ class CubeCapture:
             scene.eevee.taa_render_samples = self.samples
         for obj in self.hidden:
             obj.hide_render = True
+        self._swapped = lookup_truths(scene, self.hidden) if self.engine == "CYCLES" else []
+        for slot, _, truth in self._swapped:
+            slot.material = truth
         self._folder = tempfile.TemporaryDirectory(prefix="glossy_capture_")
         return self
 
@@ -127,6 +163,11 @@ class CubeCapture:
         for name, hidden in saved["hidden"]:
             if name in bpy.data.objects:
                 bpy.data.objects[name].hide_render = hidden
+        for slot, lookup, _ in reversed(self._swapped):
+            slot.material = lookup
+        for truth in {id(t): t for _, _, t in self._swapped}.values():
+            if truth.users == 0:
+                bpy.data.materials.remove(truth)
         data = self.camera.data
         bpy.data.objects.remove(self.camera)
         bpy.data.cameras.remove(data)

@@ -51,3 +51,21 @@ def test_probe_at_volume_centroid_equals_camera_renders(tmp_path, hdri_dir):
     assert result["auto_meta_reason"] == result["auto_reason"]
     assert result["auto_capped_shape"] == [64, 6 * 64, 3]
     assert "limited by Max Probe Resolution (Auto wanted 200)" in result["auto_capped_reason"]
+
+
+def test_a_cycles_capture_sees_other_lookups_as_their_true_bsdfs(tmp_path, hdri_dir):
+    """A sphere's Hybrid lookup (an EEVEE material whose runtime-sampling nodes
+    Cycles' SVM cannot compile: "out of SVM stack space", and the sphere came
+    out wrong in its neighbour's probe, by up to 5.5% of the probe's brightest
+    texel here) is swapped for its true BSDF during a Cycles capture, exactly as
+    if the user had put that BSDF in the slot (the same probe, to the last bit:
+    the renders are deterministic), and put back after, with no material left
+    behind. The neighbour covers about a tenth of the probe."""
+    result = run_script("capture_lookup_truth.py", tmp_path, hdri_dir / "forest.exr",
+                        tmp_path / "r.json")
+    assert result["b"] == [["FINISHED"]] * 3 and result["b_method"] == "hybrid"
+    assert result["swapped"]["status"] == result["by_hand"]["status"] == ["FINISHED"]
+    assert result["b_share"] > 0.05
+    assert result["max_difference"] < 1e-6
+    assert result["swapped"]["slot_after"] == "B glossy"
+    assert result["swapped"]["truths_left"] == []
