@@ -25,6 +25,7 @@ from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
 from ..bake.progress import prefixed_steps, run_steps
 from ..glossy_addon import validation as glue
+from ..glossy_addon.capture import lookup_truths
 from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent
 from ..glossy_addon.modal import TimerSteps
@@ -130,6 +131,17 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                 if slot.material in materials:
                     self._slots.append((slot, slot.material))
                     changes.set(slot, "material", slot.material)
+        # Other objects showing a lookup are seen as their true BSDFs in the Cycles and
+        # native renders too (Cycles cannot compile the runtime-sampling lookups), and
+        # as their lookups in EEVEE with Glossy.
+        for slot, lookup, truth in lookup_truths(scene, [obj for obj, _ in self._targets]):
+            if self._truth.get(lookup.name) is None:
+                self._truth[lookup.name] = truth
+                changes.created(bpy.data.materials, truth)
+            elif truth is not self._truth[lookup.name] and truth.users == 0:
+                bpy.data.materials.remove(truth)
+            self._slots.append((slot, lookup))
+            changes.set(slot, "material", lookup)
 
     def _use(self, kind):
         """Put the true BSDF ("truth", where there is one) or Glossy's lookup in each slot."""

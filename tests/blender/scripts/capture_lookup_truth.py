@@ -85,4 +85,27 @@ b.hide_render = False
 result["b_share"] = float(np.mean(np.abs(without_b - by_hand).max(axis=-1) > 1e-3))
 scale = float(np.max(by_hand))
 result["max_difference"] = float(np.max(np.abs(swapped - by_hand))) / scale
+
+# glossy.validate of A alone (B is not selected): A's Cycles truth reflects B, which
+# must be B's true BSDF there too. Figures that depend only on the Cycles renders:
+# Cycles' noise (the two seeds) and the NumPy reference against Cycles.
+a.glossy.method = "3d"
+select(a)
+result["a"] = [sorted(bpy.ops.glossy.capture_probes()), sorted(bpy.ops.glossy.bake_materials()),
+               sorted(bpy.ops.glossy.attach_materials())]
+scene.glossy.validate_resolution, scene.glossy.validate_samples = 48, 16
+scene.glossy.validate_eevee_samples = 1
+figures = {}
+for how in ("lookup", "by_hand"):
+    b.material_slots[0].material = lookup if how == "lookup" else truth
+    select(a)
+    status = sorted(bpy.ops.glossy.validate())
+    report = json.loads(Path(scene.glossy.last_report).with_suffix(".json").read_text())
+    entry = next(e for e in report["objects"] if e["object"] == "A")["figures"]
+    figures[how] = {"status": status, "noise": entry["cycles_noise"],
+                    "reference": entry["methods"]["reference"]["relative_rms"],
+                    "slot_after": b.material_slots[0].material.name}
+result["validate"] = figures
+result["truths_left_after_validate"] = sorted(
+    m.name for m in bpy.data.materials if m.name.endswith("(Glossy truth)") and m != truth)
 result_path.write_text(json.dumps(result, indent=1))
