@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..bake.errors import BakeError
+from .image_colour import linear_rgb
 
 #: Glossy BSDF distributions and the bake.brdf model of each (CYCLES.md).
 GLOSSY_MODELS = {"GGX": "ggx", "BECKMANN": "beckmann", "ASHIKHMIN_SHIRLEY": "ashikhmin_shirley",
@@ -82,10 +83,6 @@ def _fmt(value) -> str:
     return "/".join(f"{v:.6g}" for v in values)
 
 
-def _srgb_to_linear(c):
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 class _Reader:
     def __init__(self, material):
         self.material = material
@@ -117,9 +114,7 @@ class _Reader:
         channels = max(int(image.channels), 1)
         pixels = pixels.reshape(-1, channels).astype(np.float64)
         rgb = pixels[:, :3] if channels >= 3 else np.repeat(pixels[:, :1], 3, axis=1)
-        space = image.colorspace_settings.name
-        if not image.is_float and space in ("sRGB", "sRGB EOTF"):
-            rgb = _srgb_to_linear(rgb)
+        rgb = linear_rgb(rgb, image)
         if output.name == "Alpha" and channels == 4:
             rgb = np.repeat(pixels[:, 3:4], 3, axis=1)
         self.derived.images.append([image.name, image.filepath, list(image.size)])

@@ -4,7 +4,7 @@ import bpy
 
 from . import ownership
 from .method_choice import choose
-from .world import find_environment_image
+from .world import WorldNotReadable, find_environment_image, world_environment
 
 
 def _reason(layout, text, icon="INFO"):
@@ -75,6 +75,16 @@ class GLOSSY_PT_probe(_Sidebar, bpy.types.Panel):
             for name in ("capture_engine", "capture_samples", "clip_start", "clip_end",
                          "hide_self"):
                 column.prop(settings, name)
+        elif find_environment_image(context.scene.world) is not None:
+            try:  # what World Only will apply, or why it cannot resample this world
+                mapping = world_environment(context.scene.world)[1]
+                if not mapping.is_identity:
+                    _reason(layout, f"World Only applies the world's Mapping "
+                            f"({mapping.vector_type.lower()}) and Strength "
+                            f"{mapping.strength:g}")
+            except WorldNotReadable as error:
+                _reason(layout, f"World Only cannot resample this world: {error}",
+                        icon="ERROR")
         row = layout.row(align=True)
         row.operator("glossy.capture_probes", icon="RENDER_STILL")
         row.operator("glossy.clear", icon="TRASH")

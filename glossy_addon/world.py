@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from .image_colour import linear_rgb
+
 
 def find_environment_image(world):
     """The image of the Environment Texture node feeding the world output, or None.
@@ -33,7 +35,9 @@ def image_pixels(image) -> np.ndarray:
     """Linear float32 pixels (H, W, 3) of a Blender image, row 0 at the top.
 
     Blender stores pixels bottom row first as RGBA floats; float images
-    (EXR, HDR) are scene-linear already.
+    (EXR, HDR) are scene-linear already, an 8/16-bit sRGB image (PNG, JPEG)
+    is decoded (image_colour.linear_rgb); another colour space of such an
+    image raises ValueError.
     """
     width, height = image.size
     if width == 0 or height == 0:
@@ -42,6 +46,131 @@ def image_pixels(image) -> np.ndarray:
     buffer = np.empty(width * height * channels, dtype=np.float32)
     image.pixels.foreach_get(buffer)
     pixels = buffer.reshape(height, width, channels)[::-1]
-    if channels >= 3:
-        return np.ascontiguousarray(pixels[:, :, :3])
-    return np.ascontiguousarray(np.repeat(pixels[:, :, :1], 3, axis=2))
+    rgb = pixels[:, :, :3] if channels >= 3 else np.repeat(pixels[:, :, :1], 3, axis=2)
+    return np.ascontiguousarray(linear_rgb(rgb, image, strict=True), dtype=np.float32)
+
+
+class WorldNotReadable(ValueError):
+    """The world's shader is one World Only cannot resample (the message says why)."""
+
+
+def _single_link(socket):
+    links = [link for link in socket.links if getattr(link, "is_valid", True)
+             and not getattr(link, "is_muted", False)]
+    return links[0] if links else None
+
+
+def _unlinked_value(node, name, what):
+    socket = node.inputs[name]
+    if _single_link(socket) is not None:
+        raise WorldNotReadable(f"the world's {node.name} has its {what} linked to "
+                               f"'{_single_link(socket).from_node.name}'")
+    return socket.default_value
+
+
+def _mapping_of(env_node):
+    """(vector_type, location, rotation, scale) of the Mapping node feeding the
+    Environment Texture's Vector (the identity when it is unlinked or fed
+    straight by Texture Coordinate's Generated or Object output)."""
+    identity = ("POINT", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    link = _single_link(env_node.inputs["Vector"])
+    if link is None:
+        return identity
+    node = link.from_node
+    if node.type == "MAPPING":
+        into = _single_link(node.inputs["Vector"])
+        if into is None:
+            raise WorldNotReadable(f"the world's {node.name} has no Vector input (every "
+                                   "direction would show one texel)")
+        _check_coordinates(into)
+        values = [tuple(_unlinked_value(node, name, name)) if name in node.inputs else default
+                  for name, default in (("Location", identity[1]), ("Rotation", identity[2]),
+                                        ("Scale", identity[3]))]
+        if node.vector_type in ("VECTOR", "NORMAL"):
+            values[0] = identity[1]  # these types have no Location
+        return (node.vector_type, *values)
+    _check_coordinates(link)
+    return identity
+
+
+def _check_coordinates(link):
+    node = link.from_node
+    if node.type == "REROUTE":
+        inner = _single_link(node.inputs[0])
+        if inner is None:
+            raise WorldNotReadable(f"the world's {node.name} has no input")
+        return _check_coordinates(inner)
+    if node.type != "TEX_COORD" or link.from_socket.name not in ("Generated", "Object") \
+            or getattr(node, "object", None) is not None:
+        raise WorldNotReadable(f"the world's Environment Texture is looked up through "
+                               f"'{node.name}' ({link.from_socket.name}); World Only "
+                               "reads Texture Coordinate's Generated or Object output, "
+                               "optionally through one Mapping node")
+
+
+def _background_of(world):
+    """The Background node feeding the active World Output's Surface."""
+    tree = world.node_tree
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD"]
+    active = [n for n in outputs if getattr(n, "is_active_output", False)] or outputs
+    if not active:
+        raise WorldNotReadable("the world has no World Output node")
+    link = _single_link(active[0].inputs["Surface"])
+    node = link.from_node if link else None
+    while node is not None and node.type in ("REROUTE", "MIX_SHADER"):
+        if node.type == "MIX_SHADER":
+            # The common "camera sees a plain colour" set-up: Fac from Light Path's
+            # Is Camera Ray, which is 0 for every ray a probe or a reflection sees,
+            # so they see the first shader.
+            fac = _single_link(node.inputs[0])
+            if fac is None or fac.from_node.type != "LIGHT_PATH" \
+                    or fac.from_socket.name != "Is Camera Ray":
+                raise WorldNotReadable(f"the world's Surface is mixed by '{node.name}' "
+                                       "(World Only follows a Mix Shader only when Light "
+                                       "Path's Is Camera Ray drives it)")
+            link = _single_link(node.inputs[1])
+        else:
+            link = _single_link(node.inputs[0])
+        node = link.from_node if link else None
+    if node is None or node.type != "BACKGROUND":
+        name = f"'{node.name}'" if node is not None else "nothing"
+        raise WorldNotReadable(f"the world's Surface comes from {name}, not a Background "
+                               "node")
+    return node
+
+
+def world_environment(world):
+    """(image, bake.world_mapping.WorldMapping) of a world World Only can resample:
+    World Output <- Background (an unlinked Strength) <- Environment Texture
+    (equirectangular) <- optionally a Mapping node <- Texture Coordinate
+    (Generated or Object), reroutes allowed, and a Mix Shader driven by Light
+    Path's Is Camera Ray (its first shader: what every non-camera ray sees).
+    Raises WorldNotReadable, naming the node, for any other world: its probe
+    would not be what Cycles renders."""
+    from ..bake.errors import BakeError
+    from ..bake.world_mapping import WorldMapping
+
+    if world is None or not world.use_nodes or world.node_tree is None:
+        raise WorldNotReadable("the scene's world has no shader nodes")
+    background = _background_of(world)
+    strength = float(_unlinked_value(background, "Strength", "Strength"))
+    link = _single_link(background.inputs["Color"])
+    while link is not None and link.from_node.type == "REROUTE":
+        link = _single_link(link.from_node.inputs[0])
+    if link is None or link.from_node.type != "TEX_ENVIRONMENT" \
+            or link.from_socket.name != "Color":
+        name = f"'{link.from_node.name}'" if link is not None else "nothing"
+        raise WorldNotReadable(f"the world's Background colour comes from {name}, not an "
+                               "Environment Texture's Color")
+    env = link.from_node
+    if env.image is None:
+        raise WorldNotReadable(f"the world's {env.name} has no image")
+    if env.projection != "EQUIRECTANGULAR":
+        raise WorldNotReadable(f"the world's {env.name} uses the {env.projection.lower()} "
+                               "projection; World Only reads equirectangular images")
+    vector_type, location, rotation, scale = _mapping_of(env)
+    try:
+        return env.image, WorldMapping(vector_type, tuple(location), tuple(rotation),
+                                       tuple(scale), strength)
+    except BakeError as error:
+        raise WorldNotReadable(str(error)) from None

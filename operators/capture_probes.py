@@ -14,7 +14,12 @@ from ..glossy_addon.centres import probe_centre
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
-from ..glossy_addon.world import find_environment_image, image_pixels
+from ..glossy_addon.world import (
+    WorldNotReadable,
+    find_environment_image,
+    image_pixels,
+    world_environment,
+)
 
 MIN_RESOLUTION, MAX_RESOLUTION = 8, 4096
 
@@ -142,10 +147,15 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             settings = obj.glossy
             if settings.clip_end <= settings.clip_start:
                 raise BakeError(f"{obj.name}: clip end must be beyond clip start")
-            if settings.probe_source == "WORLD" and \
-                    find_environment_image(context.scene.world) is None:
-                raise BakeError(f"{obj.name}: 'World Only' needs an Environment Texture image "
-                                "in the world")
+            if settings.probe_source == "WORLD":
+                if find_environment_image(context.scene.world) is None:
+                    raise BakeError(f"{obj.name}: 'World Only' needs an Environment Texture "
+                                    "image in the world")
+                try:
+                    world_environment(context.scene.world)
+                except WorldNotReadable as error:
+                    raise BakeError(f"{obj.name}: 'World Only' cannot resample this world "
+                                    f"({error}); set Source to Render Scene") from None
             face, reason, detail = _face_size(context, obj)
             centre, used = probe_centre(obj, settings.centre_mode, depsgraph)
             plan.append((obj.name, centre, used))
@@ -184,6 +194,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 "source": settings.probe_source, "engine": settings.capture_engine,
                 "samples": settings.capture_samples, "time": time.time()}
         meta["size_reason"] = self._faces_chosen[name][1]
+        if settings.probe_source == "WORLD":  # the Mapping and Strength it was resampled with
+            meta["world_mapping"] = world_environment(context.scene.world)[1].to_meta()
         exr.write(path, cube, meta)
         settings.probe_path = str(path)
         settings.probe_owner = name
@@ -194,8 +206,14 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         return path
 
     def _world_cube(self, context, size):
-        image = find_environment_image(context.scene.world)
-        return envmap.convert(image_pixels(image), "latlong", "cube", size)
+        """The world resampled to a cube of ``size`` px faces as Cycles shows it: its
+        Environment Texture's image through the Mapping node and Strength."""
+        image, mapping = world_environment(context.scene.world)
+        transform = mapping.texture_directions if mapping.moves_directions else None
+        cube = envmap.convert(image_pixels(image), "latlong", "cube", size, transform=transform)
+        if mapping.strength != 1.0:
+            cube *= np.float32(mapping.strength)
+        return cube
 
     def _capture(self, context, name):
         obj = bpy.data.objects[name]

@@ -97,13 +97,17 @@ def resample(sample, target: Layout, shape, k: int, channels: int, progress=None
     return out
 
 
-def convert(image, src, dst, size, *, samples: int | None = None, progress: Progress | None = None):
+def convert(image, src, dst, size, *, samples: int | None = None, progress: Progress | None = None,
+            transform=None):
     """Convert an environment map between parameterizations.
 
     image: (H, W, C) float array in layout ``src``; ``src``/``dst`` one of
     ``latlong``, ``cube``, ``paraboloid``, ``sphere`` (or a Layout); ``size``
     the target size (lat-long: N x 2N, cube: N x 6N, paraboloid: N x 2N,
     sphere: N x N). ``samples`` overrides the sub-samples per texel side.
+    ``transform``: a function of target directions (..., 3) returning the unit
+    directions (..., 3) in which to look up the source (e.g. a world's Mapping
+    node, bake.world_mapping); None looks up the same direction.
     Returns a float32 (H', W', C) image; radiance is never clamped.
     """
     from . import get_layout
@@ -119,4 +123,9 @@ def convert(image, src, dst, size, *, samples: int | None = None, progress: Prog
         raise BakeError(f"samples must be between 1 and 64, not {k}")
     spacing = math.sqrt(4.0 * math.pi / target.covered_texels(shape)) / k
     sample = source.sampler(image, spacing)
+    if transform is not None:
+        lookup = sample
+
+        def sample(directions):
+            return lookup(transform(directions))
     return resample(sample, target, shape, int(k), image.shape[2], progress)

@@ -1,0 +1,143 @@
+"""World Only probes of worlds a user has turned and brightened, against Cycles.
+
+    python world_mapping.py ZIP WORKDIR RESULT.json   (bpy module)
+
+For each world variant (an Environment Texture through a Mapping node's
+rotation, a Background Strength, both), two empty cubes at the origin: one
+captured with Cycles (the world as it renders), one resampled from the world
+image (World Only, no render); the same for an 8-bit sRGB PNG world. Then
+World Only of the turned world behind a Mix Shader that shows the camera a
+plain colour (Light Path's Is Camera Ray).
+Writes their probe paths, and the operator's report for a world that World
+Only cannot resample.
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from _installed import install  # hides the venv's OpenEXR
+
+install(sys.argv[1])
+workdir, result_path = Path(sys.argv[2]), sys.argv[3]
+
+# isort: split
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from bl_ext.user_default.glossy.glossy_addon import scenes  # noqa: E402
+
+VARIANTS = {
+    "plain": {},
+    "turned": {"rotation": (0.0, 0.0, math.radians(70.0))},
+    "tilted": {"rotation": (math.radians(25.0), math.radians(-15.0), math.radians(200.0)),
+               "strength": 2.5},
+    "texture": {"rotation": (0.0, math.radians(30.0), math.radians(-40.0)), "type": "TEXTURE",
+                "strength": 0.4},
+}
+
+
+def world_for(variant):
+    scene = bpy.context.scene
+    node = scenes.environment_world(
+        scene, Path(bpy.utils.system_resource("DATAFILES"), "studiolights", "world",
+                    "sunset.exr"), name=variant)
+    tree = scene.world.node_tree
+    settings = VARIANTS[variant]
+    tree.nodes["Background"].inputs["Strength"].default_value = settings.get("strength", 1.0)
+    if "rotation" in settings:
+        coords = tree.nodes.new("ShaderNodeTexCoord")
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        mapping.vector_type = settings.get("type", "POINT")
+        mapping.inputs["Rotation"].default_value = settings["rotation"]
+        tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        tree.links.new(mapping.outputs["Vector"], node.inputs["Vector"])
+    return tree
+
+
+def probe_pair(variant):
+    paths = {}
+    for name, source in (("cycles", "RENDER"), ("world", "WORLD")):
+        bpy.ops.mesh.primitive_cube_add(size=0.1)
+        obj = bpy.context.object
+        obj.name = f"{variant}_{name}"
+        obj.hide_render = True
+        settings = obj.glossy
+        settings.probe_source, settings.capture_engine = source, "CYCLES"
+        settings.probe_size_mode = "FIXED"
+        settings.probe_resolution = 32
+        settings.capture_samples = 16
+        settings.centre_mode = "ORIGIN"
+        paths[name] = obj
+    bpy.ops.object.select_all(action="DESELECT")
+    for obj in paths.values():
+        obj.select_set(True)
+    outcome = sorted(bpy.ops.glossy.capture_probes())
+    return outcome, {name: bpy.path.abspath(obj.glossy.probe_path) for name, obj in paths.items()}
+
+
+for obj in list(bpy.data.objects):
+    bpy.data.objects.remove(obj)
+bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
+report = {"variants": {}}
+for variant in VARIANTS:
+    world_for(variant)
+    outcome, paths = probe_pair(variant)
+    report["variants"][variant] = {"capture": outcome, "probes": paths}
+
+# An 8-bit sRGB PNG world (stored values 0.2-0.8): Cycles decodes it to linear.
+png = bpy.data.images.new("gradient", 64, 32, alpha=False)
+rows, cols = np.meshgrid(np.linspace(0.25, 0.75, 32), np.linspace(0.2, 0.8, 64), indexing="ij")
+png.pixels.foreach_set(np.stack([cols, rows, np.full_like(rows, 0.5), np.ones_like(rows)],
+                                axis=2).astype(np.float32).ravel())
+png.filepath_raw, png.file_format = str(workdir / "gradient.png"), "PNG"
+png.save()
+scenes.environment_world(bpy.context.scene, workdir / "gradient.png", name="png")
+outcome, paths = probe_pair("png")
+report["png"] = {"capture": outcome, "probes": paths}
+
+# The camera sees a plain colour, everything else the turned HDRI (Mix Shader
+# driven by Light Path's Is Camera Ray): World Only follows the HDRI.
+tree = world_for("turned")
+background = tree.nodes["Background"]
+output = next(n for n in tree.nodes if n.type == "OUTPUT_WORLD")
+plain = tree.nodes.new("ShaderNodeBackground")
+plain.inputs["Color"].default_value = (0.2, 0.2, 0.2, 1.0)
+mix = tree.nodes.new("ShaderNodeMixShader")
+path = tree.nodes.new("ShaderNodeLightPath")
+tree.links.new(path.outputs["Is Camera Ray"], mix.inputs[0])
+tree.links.new(background.outputs["Background"], mix.inputs[1])
+tree.links.new(plain.outputs["Background"], mix.inputs[2])
+tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+bpy.ops.mesh.primitive_cube_add(size=0.1)
+obj = bpy.context.object
+obj.name = "trick_world"
+obj.hide_render = True
+obj.glossy.probe_source, obj.glossy.probe_size_mode = "WORLD", "FIXED"
+obj.glossy.probe_resolution = 32
+bpy.ops.object.select_all(action="DESELECT")
+obj.select_set(True)
+report["camera_trick"] = {"capture": sorted(bpy.ops.glossy.capture_probes()),
+                          "probe": bpy.path.abspath(obj.glossy.probe_path)}
+
+# A world World Only cannot reproduce: the image's colour goes through a node
+# Glossy does not evaluate. The capture must refuse it with one message.
+tree = world_for("plain")
+env = next(n for n in tree.nodes if n.type == "TEX_ENVIRONMENT")
+curve = tree.nodes.new("ShaderNodeHueSaturation")
+tree.links.new(env.outputs["Color"], curve.inputs["Color"])
+tree.links.new(curve.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+bpy.ops.mesh.primitive_cube_add(size=0.1)
+obj = bpy.context.object
+obj.name = "refused"
+obj.glossy.probe_source = "WORLD"
+bpy.ops.object.select_all(action="DESELECT")
+obj.select_set(True)
+try:
+    refused = sorted(bpy.ops.glossy.capture_probes())
+    message = ""
+except RuntimeError as error:
+    refused, message = ["ERROR"], str(error)
+report["refused"] = {"outcome": refused, "message": message,
+                     "probe_path": obj.glossy.probe_path}
+Path(result_path).write_text(json.dumps(report, indent=1))

@@ -1,0 +1,61 @@
+"""World Only probes follow the world's Mapping node and Background Strength, as
+Cycles renders them (tests/blender/scripts/world_mapping.py), decode 8-bit sRGB
+images, see through the
+"camera sees a plain colour" Mix Shader, and a world they cannot reproduce is
+refused with one message and no file."""
+
+import numpy as np
+import pytest
+
+from bake import exr
+from tests.blender.conftest import run_script
+from tests.blender.test_engine_capture import _box
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+
+
+def _median_relative(image, truth):
+    return float(np.median(np.abs(_box(image) - _box(truth)) / np.maximum(_box(truth), 1e-3)))
+
+
+def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extension_zip,
+                                                                         tmp_path):
+    user = tmp_path / "user"
+    user.mkdir()
+    r = run_script("world_mapping.py", extension_zip, tmp_path, tmp_path / "r.json",
+                   user_dir=user)
+    plain_world, _ = exr.read(r["variants"]["plain"]["probes"]["world"])
+    for variant, found in r["variants"].items():
+        assert found["capture"] == ["FINISHED"], variant
+        cycles, _ = exr.read(found["probes"]["cycles"])
+        world, meta = exr.read(found["probes"]["world"])
+        assert meta["world_mapping"]["vector_type"] in ("POINT", "TEXTURE"), variant
+        # Same tolerances as test_engine_capture (4 x 4 texel blocks: a render's
+        # pixel filter against the resample's exact texel mean, ~1-2% in sunset's
+        # sky; a face turned or the strength wrong gives 30-150%). The mean is
+        # looser than there (5%): sunset's sun, a few texels of 16 spp, carries a
+        # large share of it.
+        assert _median_relative(world, cycles) < 0.04, variant
+        assert abs(world.mean() / cycles.mean() - 1.0) < 0.05, variant
+        if variant != "plain":  # the image as it is (what World Only made before) is wrong
+            assert _median_relative(plain_world, cycles) > 0.2, variant
+    # An 8-bit sRGB image is decoded as Cycles decodes it: its blue channel is
+    # 128/255 everywhere, 0.2158 in linear light (0.502 as stored).
+    png = r["png"]
+    assert png["capture"] == ["FINISHED"]
+    cycles, _ = exr.read(png["probes"]["cycles"])
+    world, _ = exr.read(png["probes"]["world"])
+    np.testing.assert_allclose(world[..., 2], 0.2158, atol=2e-3)
+    np.testing.assert_allclose(world.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=0.03)
+    # Behind a Mix Shader driven by Is Camera Ray, the rays a probe stands for see
+    # the turned HDRI: the same probe as the turned world's.
+    trick = r["camera_trick"]
+    assert trick["capture"] == ["FINISHED"]
+    turned, _ = exr.read(r["variants"]["turned"]["probes"]["world"])
+    np.testing.assert_array_equal(exr.read(trick["probe"])[0], turned)
+    refused = r["refused"]
+    assert refused["outcome"] == ["ERROR"]
+    assert "Hue/Saturation/Value" in refused["message"]
+    assert "Render Scene" in refused["message"]
+    assert refused["probe_path"] == ""
+    assert not (tmp_path / "glossy" / "refused_probe.exr").exists()
