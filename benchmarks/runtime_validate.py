@@ -18,10 +18,13 @@ same pixels.
         [--case hybrid:0.3:0:19 ...]   (method:roughness:anisotropy:samples;
                                         hybrid-nolights: Probe Lights off)
         [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
+        [--rotate 20,0,135] [--strength 2]   (the world turned by a Mapping node)
 """
 
 import argparse
 import json
+import math
+import os
 import re
 import subprocess
 import sys
@@ -51,11 +54,20 @@ def main():
     parser.add_argument("--hdri", action="append",
                         help="bundled HDRI stem or a path to a lat-long .exr (repeatable; "
                              "default all bundled)")
+    parser.add_argument("--rotate", default=None,
+                        help="turn the world's image by a Mapping node: Euler X,Y,Z degrees")
+    parser.add_argument("--strength", type=float, default=1.0,
+                        help="the world's Background Strength (default 1)")
     parser.add_argument("--case", action="append",
                         help="method:roughness:anisotropy:samples (repeatable)")
     args = parser.parse_args()
     hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
     script = ROOT / "tests" / "blender" / "scripts" / "runtime_validate.py"
+    environment = dict(os.environ)
+    if args.rotate or args.strength != 1.0:
+        degrees = [float(a) for a in (args.rotate or "0,0,0").split(",")]
+        environment["GLOSSY_WORLD_MAPPING"] = json.dumps(
+            {"rotation": [math.radians(a) for a in degrees], "strength": args.strength})
     print(f"{args.size}^2 px, Cycles 2 x {args.cycles} spp, EEVEE {args.eevee} samples, "
           f"probe {args.probe}; relative RMS of luminance against Cycles", flush=True)
     print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "
@@ -73,7 +85,7 @@ def main():
                 [sys.executable, str(script), str(hdri_path(hdri)), str(work),
                  str(args.size), str(args.cycles), str(args.eevee), json.dumps(spheres), "0",
                  "1", args.probe, str(work / "result.json")],
-                cwd=script.parent, capture_output=True, text=True)
+                cwd=script.parent, capture_output=True, text=True, env=environment)
             seconds = time.perf_counter() - start
             try:
                 result = json.loads((work / "result.json").read_text())

@@ -16,6 +16,7 @@ from mathutils import Matrix, Vector
 from ..bake import exr
 from ..bake.envmap.cube import _FACE_TABLE
 from .scenes import render_engine
+from .world import CameraRayMixesOpen
 
 #: GL frame -> Blender: (x, y, z) = (g0, -g2, g1).
 _GL_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -70,7 +71,9 @@ class CubeCapture:
     a lookup is an EEVEE material (an Emission of the baked reflection), and
     Cycles' SVM cannot compile the Runtime Sampling and Hybrid ones (out of
     stack space, so the object came out wrong in the probe). EEVEE captures see
-    the lookups, as EEVEE renders the scene.
+    the lookups, as EEVEE renders the scene. A world that shows the camera a
+    plain colour (a Mix Shader on Light Path's Is Camera Ray) shows the probe
+    what reflections see (world.CameraRayMixesOpen).
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
@@ -131,6 +134,7 @@ class CubeCapture:
         for slot, _, truth in self._swapped:
             slot.material = truth
         self._folder = tempfile.TemporaryDirectory(prefix="glossy_capture_")
+        self._world_mixes = CameraRayMixesOpen(scene.world).__enter__()
         return self
 
     def render_face(self, face: int) -> np.ndarray:
@@ -163,6 +167,7 @@ class CubeCapture:
         for name, hidden in saved["hidden"]:
             if name in bpy.data.objects:
                 bpy.data.objects[name].hide_render = hidden
+        self._world_mixes.__exit__(*exc)
         for slot, lookup, _ in reversed(self._swapped):
             slot.material = lookup
         for truth in {id(t): t for _, _, t in self._swapped}.values():

@@ -174,3 +174,50 @@ def world_environment(world):
                                        tuple(scale), strength)
     except BakeError as error:
         raise WorldNotReadable(str(error)) from None
+
+
+class CameraRayMixesOpen:
+    """For a capture: the world's Mix Shaders driven by Light Path's Is Camera Ray
+    show their first shader, as they do to every ray a probe stands for.
+
+    A probe's face is rendered with camera rays, so a world that shows the camera
+    a plain colour (the common Is Camera Ray set-up) would put that colour in the
+    probe, where reflections see the HDRI. Inside the ``with`` block those links
+    are cut and each Fac set to 0; on exit the links and Fac values come back.
+    """
+
+    def __init__(self, world):
+        self.world = world
+        self._cut = []
+
+    def __enter__(self):
+        world = self.world
+        if world is None or not world.use_nodes or world.node_tree is None:
+            return self
+        tree = world.node_tree
+        for node in tree.nodes:
+            if node.type != "MIX_SHADER":
+                continue
+            link = _single_link(node.inputs[0])
+            if link is None or link.from_node.type != "LIGHT_PATH" \
+                    or link.from_socket.name != "Is Camera Ray":
+                continue
+            self._cut.append((node.name, link.from_node.name, link.from_socket.identifier,
+                              node.inputs[0].default_value))
+            tree.links.remove(link)
+            node.inputs[0].default_value = 0.0
+        return self
+
+    def __exit__(self, *exc):
+        if not self._cut:
+            return False
+        tree = self.world.node_tree
+        for mix_name, path_name, identifier, fac in reversed(self._cut):
+            mix, path = tree.nodes.get(mix_name), tree.nodes.get(path_name)
+            if mix is None or path is None:
+                continue
+            mix.inputs[0].default_value = fac
+            output = next(s for s in path.outputs if s.identifier == identifier)
+            tree.links.new(output, mix.inputs[0])
+        self._cut = []
+        return False

@@ -1,7 +1,7 @@
 """World Only probes follow the world's Mapping node and Background Strength, as
 Cycles renders them (tests/blender/scripts/world_mapping.py), decode 8-bit sRGB
 images, see through the
-"camera sees a plain colour" Mix Shader, and a world they cannot reproduce is
+"camera sees a plain colour" Mix Shader (a Cycles capture too), and a world they cannot reproduce is
 refused with one message and no file."""
 
 import numpy as np
@@ -48,11 +48,16 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
     np.testing.assert_allclose(world[..., 2], 0.2158, atol=2e-3)
     np.testing.assert_allclose(world.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=0.03)
     # Behind a Mix Shader driven by Is Camera Ray, the rays a probe stands for see
-    # the turned HDRI: the same probe as the turned world's.
+    # the turned HDRI: both captures give the turned world's probes (the Cycles
+    # one showed the camera's grey, 0.2, before), and the world is left as it was.
     trick = r["camera_trick"]
     assert trick["capture"] == ["FINISHED"]
-    turned, _ = exr.read(r["variants"]["turned"]["probes"]["world"])
-    np.testing.assert_array_equal(exr.read(trick["probe"])[0], turned)
+    turned = {kind: exr.read(path)[0]
+              for kind, path in r["variants"]["turned"]["probes"].items()}
+    np.testing.assert_array_equal(exr.read(trick["probes"]["world"])[0], turned["world"])
+    trick_cycles, _ = exr.read(trick["probes"]["cycles"])
+    assert _median_relative(trick_cycles, turned["cycles"]) < 0.01
+    assert trick["fac_still_linked"] and trick["fac_default"] == pytest.approx(0.5)
     refused = r["refused"]
     assert refused["outcome"] == ["ERROR"]
     assert "Hue/Saturation/Value" in refused["message"]

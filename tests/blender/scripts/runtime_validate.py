@@ -22,9 +22,13 @@ With CAMERA=1 the scene gets a camera (bake.reference.sphere_buffers': at
 through, so the first sphere fills the frame as in the NumPy benchmarks.
 PROBE: the probes' face size (default 64, Fixed); "auto" leaves it to
 Auto (the lobe's width, capped by the world image's detail).
+GLOSSY_WORLD_MAPPING (environment, JSON {"rotation": [x, y, z] rad,
+"strength": s}): the world's image goes through a Mapping node with that
+rotation, at that Background Strength.
 """
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -43,7 +47,17 @@ from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 bpy.ops.wm.read_factory_settings(use_empty=True)
 glossy.register()
 scene = bpy.context.scene
-environment_world(scene, hdri)
+environment = environment_world(scene, hdri)
+if os.environ.get("GLOSSY_WORLD_MAPPING"):  # {"rotation": [x, y, z] rad, "strength": s}
+    mapping_settings = json.loads(os.environ["GLOSSY_WORLD_MAPPING"])
+    tree = scene.world.node_tree
+    tree.nodes["Background"].inputs["Strength"].default_value = \
+        mapping_settings.get("strength", 1.0)
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = mapping_settings.get("rotation", (0, 0, 0))
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"],
+                   mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], environment.inputs["Vector"])
 scene.render.resolution_x = scene.render.resolution_y = 100
 scene.glossy.validate_resolution = size
 scene.glossy.validate_samples = samples

@@ -5,9 +5,9 @@
 For each world variant (an Environment Texture through a Mapping node's
 rotation, a Background Strength, both), two empty cubes at the origin: one
 captured with Cycles (the world as it renders), one resampled from the world
-image (World Only, no render); the same for an 8-bit sRGB PNG world. Then
-World Only of the turned world behind a Mix Shader that shows the camera a
-plain colour (Light Path's Is Camera Ray).
+image (World Only, no render); the same for an 8-bit sRGB PNG world and for
+the turned world behind a Mix Shader that shows the camera a plain colour
+(Light Path's Is Camera Ray).
 Writes their probe paths, and the operator's report for a world that World
 Only cannot resample.
 """
@@ -109,16 +109,12 @@ tree.links.new(path.outputs["Is Camera Ray"], mix.inputs[0])
 tree.links.new(background.outputs["Background"], mix.inputs[1])
 tree.links.new(plain.outputs["Background"], mix.inputs[2])
 tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
-bpy.ops.mesh.primitive_cube_add(size=0.1)
-obj = bpy.context.object
-obj.name = "trick_world"
-obj.hide_render = True
-obj.glossy.probe_source, obj.glossy.probe_size_mode = "WORLD", "FIXED"
-obj.glossy.probe_resolution = 32
-bpy.ops.object.select_all(action="DESELECT")
-obj.select_set(True)
-report["camera_trick"] = {"capture": sorted(bpy.ops.glossy.capture_probes()),
-                          "probe": bpy.path.abspath(obj.glossy.probe_path)}
+outcome, paths = probe_pair("trick")
+fac = mix.inputs[0]
+report["camera_trick"] = {"capture": outcome, "probes": paths,
+                          "fac_still_linked": bool(fac.is_linked and fac.links[0].from_socket.name
+                                                   == "Is Camera Ray"),
+                          "fac_default": fac.default_value}
 
 # A world World Only cannot reproduce: the image's colour goes through a node
 # Glossy does not evaluate. The capture must refuse it with one message.
