@@ -60,11 +60,28 @@ def _single_link(socket):
     return links[0] if links else None
 
 
-def _unlinked_value(node, name, what):
+def _source(socket):
+    """(node, output socket) that feeds ``socket`` as Blender evaluates it: through
+    reroutes and muted nodes (their internal links), or (None, None) when nothing
+    does (an unlinked input, or a muted node that passes nothing on)."""
+    link = _single_link(socket)
+    while link is not None:
+        node, output = link.from_node, link.from_socket
+        if node.type != "REROUTE" and not node.mute:
+            return node, output
+        inner = node.inputs[0] if node.type == "REROUTE" else next(
+            (inner_link.from_socket for inner_link in node.internal_links
+             if inner_link.to_socket == output), None)
+        link = _single_link(inner) if inner is not None else None
+    return None, None
+
+
+def _unlinked_value(node, name):
     socket = node.inputs[name]
-    if _single_link(socket) is not None:
-        raise WorldNotReadable(f"the world's {node.name} has its {what} linked to "
-                               f"'{_single_link(socket).from_node.name}'")
+    source, _ = _source(socket)
+    if source is not None:
+        raise WorldNotReadable(f"the world's {node.name} has its {name} linked to "
+                               f"'{source.name}'")
     return socket.default_value
 
 
@@ -73,39 +90,32 @@ def _mapping_of(env_node):
     Environment Texture's Vector (the identity when it is unlinked or fed
     straight by Texture Coordinate's Generated or Object output)."""
     identity = ("POINT", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
-    link = _single_link(env_node.inputs["Vector"])
-    if link is None:
+    node, output = _source(env_node.inputs["Vector"])
+    if node is None:
         return identity
-    node = link.from_node
-    if node.type == "MAPPING":
-        into = _single_link(node.inputs["Vector"])
-        if into is None:
-            raise WorldNotReadable(f"the world's {node.name} has no Vector input (every "
-                                   "direction would show one texel)")
-        _check_coordinates(into)
-        values = [tuple(_unlinked_value(node, name, name)) if name in node.inputs else default
-                  for name, default in (("Location", identity[1]), ("Rotation", identity[2]),
-                                        ("Scale", identity[3]))]
-        if node.vector_type in ("VECTOR", "NORMAL"):
-            values[0] = identity[1]  # these types have no Location
-        return (node.vector_type, *values)
-    _check_coordinates(link)
-    return identity
+    if node.type != "MAPPING":
+        _check_coordinates(node, output)
+        return identity
+    into, into_output = _source(node.inputs["Vector"])
+    if into is None:
+        raise WorldNotReadable(f"the world's {node.name} has no Vector input (every "
+                               "direction would show one texel)")
+    _check_coordinates(into, into_output)
+    values = [tuple(_unlinked_value(node, name)) if name in node.inputs else default
+              for name, default in (("Location", identity[1]), ("Rotation", identity[2]),
+                                    ("Scale", identity[3]))]
+    if node.vector_type in ("VECTOR", "NORMAL"):
+        values[0] = identity[1]  # these types have no Location
+    return (node.vector_type, *values)
 
 
-def _check_coordinates(link):
-    node = link.from_node
-    if node.type == "REROUTE":
-        inner = _single_link(node.inputs[0])
-        if inner is None:
-            raise WorldNotReadable(f"the world's {node.name} has no input")
-        return _check_coordinates(inner)
-    if node.type != "TEX_COORD" or link.from_socket.name not in ("Generated", "Object") \
+def _check_coordinates(node, output):
+    if node.type != "TEX_COORD" or output.name not in ("Generated", "Object") \
             or getattr(node, "object", None) is not None:
         raise WorldNotReadable(f"the world's Environment Texture is looked up through "
-                               f"'{node.name}' ({link.from_socket.name}); World Only "
-                               "reads Texture Coordinate's Generated or Object output, "
-                               "optionally through one Mapping node")
+                               f"'{node.name}' ({output.name}); World Only reads Texture "
+                               "Coordinate's Generated or Object output, optionally "
+                               "through one Mapping node")
 
 
 def _background_of(world):
@@ -115,23 +125,17 @@ def _background_of(world):
     active = [n for n in outputs if getattr(n, "is_active_output", False)] or outputs
     if not active:
         raise WorldNotReadable("the world has no World Output node")
-    link = _single_link(active[0].inputs["Surface"])
-    node = link.from_node if link else None
-    while node is not None and node.type in ("REROUTE", "MIX_SHADER"):
-        if node.type == "MIX_SHADER":
-            # The common "camera sees a plain colour" set-up: Fac from Light Path's
-            # Is Camera Ray, which is 0 for every ray a probe or a reflection sees,
-            # so they see the first shader.
-            fac = _single_link(node.inputs[0])
-            if fac is None or fac.from_node.type != "LIGHT_PATH" \
-                    or fac.from_socket.name != "Is Camera Ray":
-                raise WorldNotReadable(f"the world's Surface is mixed by '{node.name}' "
-                                       "(World Only follows a Mix Shader only when Light "
-                                       "Path's Is Camera Ray drives it)")
-            link = _single_link(node.inputs[1])
-        else:
-            link = _single_link(node.inputs[0])
-        node = link.from_node if link else None
+    node, _ = _source(active[0].inputs["Surface"])
+    while node is not None and node.type == "MIX_SHADER":
+        # The common "camera sees a plain colour" set-up: Fac from Light Path's
+        # Is Camera Ray, which is 0 for every ray a probe or a reflection sees,
+        # so they see the first shader.
+        fac, fac_output = _source(node.inputs[0])
+        if fac is None or fac.type != "LIGHT_PATH" or fac_output.name != "Is Camera Ray":
+            raise WorldNotReadable(f"the world's Surface is mixed by '{node.name}' (World "
+                                   "Only follows a Mix Shader only when Light Path's Is "
+                                   "Camera Ray drives it)")
+        node, _ = _source(node.inputs[1])
     if node is None or node.type != "BACKGROUND":
         name = f"'{node.name}'" if node is not None else "nothing"
         raise WorldNotReadable(f"the world's Surface comes from {name}, not a Background "
@@ -143,26 +147,22 @@ def world_environment(world):
     """(image, bake.world_mapping.WorldMapping) of a world World Only can resample:
     World Output <- Background (an unlinked Strength) <- Environment Texture
     (equirectangular) <- optionally a Mapping node <- Texture Coordinate
-    (Generated or Object), reroutes allowed, and a Mix Shader driven by Light
-    Path's Is Camera Ray (its first shader: what every non-camera ray sees).
-    Raises WorldNotReadable, naming the node, for any other world: its probe
-    would not be what Cycles renders."""
+    (Generated or Object), through reroutes and muted nodes as Blender passes
+    them, and a Mix Shader driven by Light Path's Is Camera Ray (its first
+    shader: what every non-camera ray sees). Raises WorldNotReadable, naming
+    the node, for any other world: its probe would not be what Cycles renders."""
     from ..bake.errors import BakeError
     from ..bake.world_mapping import WorldMapping
 
     if world is None or not world.use_nodes or world.node_tree is None:
         raise WorldNotReadable("the scene's world has no shader nodes")
     background = _background_of(world)
-    strength = float(_unlinked_value(background, "Strength", "Strength"))
-    link = _single_link(background.inputs["Color"])
-    while link is not None and link.from_node.type == "REROUTE":
-        link = _single_link(link.from_node.inputs[0])
-    if link is None or link.from_node.type != "TEX_ENVIRONMENT" \
-            or link.from_socket.name != "Color":
-        name = f"'{link.from_node.name}'" if link is not None else "nothing"
+    strength = float(_unlinked_value(background, "Strength"))
+    env, output = _source(background.inputs["Color"])
+    if env is None or env.type != "TEX_ENVIRONMENT" or output.name != "Color":
+        name = f"'{env.name}'" if env is not None else "nothing"
         raise WorldNotReadable(f"the world's Background colour comes from {name}, not an "
                                "Environment Texture's Color")
-    env = link.from_node
     if env.image is None:
         raise WorldNotReadable(f"the world's {env.name} has no image")
     if env.projection != "EQUIRECTANGULAR":
@@ -199,7 +199,7 @@ class CameraRayMixesOpen:
             if node.type != "MIX_SHADER":
                 continue
             link = _single_link(node.inputs[0])
-            if link is None or link.from_node.type != "LIGHT_PATH" \
+            if node.mute or link is None or link.from_node.type != "LIGHT_PATH" \
                     or link.from_socket.name != "Is Camera Ray":
                 continue
             self._cut.append((node.name, link.from_node.name, link.from_socket.identifier,

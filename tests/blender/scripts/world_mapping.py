@@ -3,7 +3,7 @@
     python world_mapping.py ZIP WORKDIR RESULT.json   (bpy module)
 
 For each world variant (an Environment Texture through a Mapping node's
-rotation, a Background Strength, both), two empty cubes at the origin: one
+rotation, a Background Strength, both, a muted Mapping node), two empty cubes at the origin: one
 captured with Cycles (the world as it renders), one resampled from the world
 image (World Only, no render); the same for an 8-bit sRGB PNG world and for
 the turned world behind a Mix Shader that shows the camera a plain colour
@@ -34,6 +34,8 @@ VARIANTS = {
                "strength": 2.5},
     "texture": {"rotation": (0.0, math.radians(30.0), math.radians(-40.0)), "type": "TEXTURE",
                 "strength": 0.4},
+    # A muted Mapping node passes its Vector through: the world as loaded.
+    "muted": {"rotation": (0.0, 0.0, math.radians(70.0)), "mute": True},
 }
 
 
@@ -52,6 +54,7 @@ def world_for(variant):
         mapping.inputs["Rotation"].default_value = settings["rotation"]
         tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
         tree.links.new(mapping.outputs["Vector"], node.inputs["Vector"])
+        mapping.mute = settings.get("mute", False)
     return tree
 
 
