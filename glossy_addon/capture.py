@@ -73,7 +73,8 @@ class CubeCapture:
     stack space, so the object came out wrong in the probe). EEVEE captures see
     the lookups, as EEVEE renders the scene. A world that shows the camera a
     plain colour (a Mix Shader on Light Path's Is Camera Ray) shows the probe
-    what reflections see (world.CameraRayMixesOpen).
+    what reflections see (world.CameraRayMixesOpen), and camera rays get the
+    world's and objects' glossy ray visibility for the capture.
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
@@ -135,7 +136,27 @@ class CubeCapture:
             slot.material = truth
         self._folder = tempfile.TemporaryDirectory(prefix="glossy_capture_")
         self._world_mixes = CameraRayMixesOpen(scene.world).__enter__()
+        self._visibility = self._as_glossy_rays(scene)
         return self
+
+    def _as_glossy_rays(self, scene):
+        """Give camera rays the visibility glossy rays have (the world's and each
+        object's), as a probe stands for what reflections see: a world or an
+        object hidden from the camera but seen in reflections is in the probe,
+        one seen by the camera but not in reflections is not. Returns what to
+        restore: [(datablock name or None for the world, camera visibility)]."""
+        changed = []
+        world = scene.world
+        if world is not None and world.cycles_visibility.camera != \
+                world.cycles_visibility.glossy:
+            changed.append((None, world.cycles_visibility.camera))
+            world.cycles_visibility.camera = world.cycles_visibility.glossy
+        for obj in scene.objects:
+            if obj.hide_render or obj.visible_camera == obj.visible_glossy:
+                continue
+            changed.append((obj.name, obj.visible_camera))
+            obj.visible_camera = obj.visible_glossy
+        return changed
 
     def render_face(self, face: int) -> np.ndarray:
         self.camera.matrix_world = Matrix.Translation(self.centre) @ face_rotation(face).to_4x4()
@@ -168,6 +189,12 @@ class CubeCapture:
             if name in bpy.data.objects:
                 bpy.data.objects[name].hide_render = hidden
         self._world_mixes.__exit__(*exc)
+        for name, camera in reversed(self._visibility):
+            if name is None:
+                if scene.world is not None:
+                    scene.world.cycles_visibility.camera = camera
+            elif name in bpy.data.objects:
+                bpy.data.objects[name].visible_camera = camera
         for slot, lookup, _ in reversed(self._swapped):
             slot.material = lookup
         for truth in {id(t): t for _, _, t in self._swapped}.values():

@@ -37,8 +37,8 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
         # large share of it.
         assert _median_relative(world, cycles) < 0.04, variant
         assert abs(world.mean() / cycles.mean() - 1.0) < 0.05, variant
-        if variant in ("plain", "muted"):  # a muted Mapping node passes the Vector on
-            np.testing.assert_array_equal(world, plain_world)
+        if variant in ("plain", "muted", "hidden"):  # the image as loaded (a muted
+            np.testing.assert_array_equal(world, plain_world)  # Mapping passes it on)
         else:  # the image as it is (what World Only made before) is wrong
             assert _median_relative(plain_world, cycles) > 0.2, variant
     # An 8-bit sRGB image is decoded as Cycles decodes it: its blue channel is
@@ -60,6 +60,20 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
     trick_cycles, _ = exr.read(trick["probes"]["cycles"])
     assert _median_relative(trick_cycles, turned["cycles"]) < 0.01
     assert trick["fac_still_linked"] and trick["fac_default"] == pytest.approx(0.5)
+    # The probe shows what reflections see: the world hidden from the camera is
+    # in it (the assertions above: a black probe before), and of two emitting
+    # cubes (strength 100) the one only reflections see is in it, the one only
+    # the camera sees is not; both keep their own visibility after.
+    visibility = r["visibility"]
+    assert visibility["capture"] == ["FINISHED"]
+    seen, _ = exr.read(visibility["probes"]["cycles"])
+    plain_cycles, _ = exr.read(r["variants"]["plain"]["probes"]["cycles"])
+    assert seen.max() > 50.0 > plain_cycles.max()
+    n = seen.shape[0]
+    faces = {name: seen[:, k * n:(k + 1) * n] for k, name in enumerate(("+x", "-x"))}
+    assert faces["+x"].mean() > 10 * plain_cycles[:, :n].mean()  # the glossy-only cube
+    assert _median_relative(faces["-x"], plain_cycles[:, n:2 * n]) < 0.04  # camera-only
+    assert visibility["restored"] == [[False, True], [True, False]]
     refused = r["refused"]
     assert refused["outcome"] == ["ERROR"]
     assert "Hue/Saturation/Value" in refused["message"]

@@ -3,11 +3,13 @@
     python world_mapping.py ZIP WORKDIR RESULT.json   (bpy module)
 
 For each world variant (an Environment Texture through a Mapping node's
-rotation, a Background Strength, both, a muted Mapping node), two empty cubes at the origin: one
+rotation, a Background Strength, both, a muted Mapping node, a world hidden
+from the camera), two empty cubes at the origin: one
 captured with Cycles (the world as it renders), one resampled from the world
 image (World Only, no render); the same for an 8-bit sRGB PNG world and for
 the turned world behind a Mix Shader that shows the camera a plain colour
-(Light Path's Is Camera Ray).
+(Light Path's Is Camera Ray), and a Cycles capture beside two emitting cubes,
+one seen only by reflections, one only by the camera.
 Writes their probe paths, and the operator's report for a world that World
 Only cannot resample.
 """
@@ -36,6 +38,8 @@ VARIANTS = {
                 "strength": 0.4},
     # A muted Mapping node passes its Vector through: the world as loaded.
     "muted": {"rotation": (0.0, 0.0, math.radians(70.0)), "mute": True},
+    # Hidden from the camera, seen in reflections (World > Ray Visibility).
+    "hidden": {"camera": False},
 }
 
 
@@ -47,6 +51,7 @@ def world_for(variant):
     tree = scene.world.node_tree
     settings = VARIANTS[variant]
     tree.nodes["Background"].inputs["Strength"].default_value = settings.get("strength", 1.0)
+    scene.world.cycles_visibility.camera = settings.get("camera", True)
     if "rotation" in settings:
         coords = tree.nodes.new("ShaderNodeTexCoord")
         mapping = tree.nodes.new("ShaderNodeMapping")
@@ -118,6 +123,32 @@ report["camera_trick"] = {"capture": outcome, "probes": paths,
                           "fac_still_linked": bool(fac.is_linked and fac.links[0].from_socket.name
                                                    == "Is Camera Ray"),
                           "fac_default": fac.default_value}
+
+# Two bright cubes beside the probe point: one hidden from the camera but seen in
+# reflections (it belongs in the probe), one the other way round (it does not).
+world_for("plain")
+lamps = {}
+for name, camera, glossy, x in (("glossy_only", False, True, 1.0), ("camera_only", True, False,
+                                                                     -1.0)):
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(x, 0.0, 0.0))
+    cube = bpy.context.object
+    cube.name = name
+    emit = bpy.data.materials.new(name)
+    emit.use_nodes = True
+    emit.node_tree.nodes.clear()
+    shader = emit.node_tree.nodes.new("ShaderNodeEmission")
+    shader.inputs["Strength"].default_value = 100.0
+    emit.node_tree.links.new(shader.outputs[0], emit.node_tree.nodes.new(
+        "ShaderNodeOutputMaterial").inputs["Surface"])
+    cube.data.materials.append(emit)
+    cube.visible_camera, cube.visible_glossy = camera, glossy
+    lamps[name] = cube
+outcome, paths = probe_pair("visibility")
+report["visibility"] = {"capture": outcome, "probes": paths,
+                        "restored": [[o.visible_camera, o.visible_glossy]
+                                     for o in lamps.values()]}
+for cube in lamps.values():
+    bpy.data.objects.remove(cube)
 
 # A world World Only cannot reproduce: the image's colour goes through a node
 # Glossy does not evaluate. The capture must refuse it with one message.
