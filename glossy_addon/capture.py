@@ -143,8 +143,9 @@ class CubeCapture:
         """Give camera rays the visibility glossy rays have (the world's and each
         object's), as a probe stands for what reflections see: a world or an
         object hidden from the camera but seen in reflections is in the probe,
-        one seen by the camera but not in reflections is not. Returns what to
-        restore: [(datablock name or None for the world, camera visibility)]."""
+        one seen by the camera but not in reflections is not. Lamps are left
+        alone. Returns what to restore: [(object name, or None for the world,
+        camera visibility)]."""
         changed = []
         world = scene.world
         if world is not None and world.cycles_visibility.camera != \
@@ -152,7 +153,11 @@ class CubeCapture:
             changed.append((None, world.cycles_visibility.camera))
             world.cycles_visibility.camera = world.cycles_visibility.glossy
         for obj in scene.objects:
-            if obj.hide_render or obj.visible_camera == obj.visible_glossy:
+            # Lamps stay as the capture finds them (hidden from the camera by
+            # default): a material's lamp term shades them (glossy_addon.lamps),
+            # so showing them in the probe too would count them twice.
+            if obj.type == "LIGHT" or obj.hide_render or \
+                    obj.visible_camera == obj.visible_glossy:
                 continue
             changed.append((obj.name, obj.visible_camera))
             obj.visible_camera = obj.visible_glossy

@@ -9,7 +9,7 @@ captured with Cycles (the world as it renders), one resampled from the world
 image (World Only, no render); the same for an 8-bit sRGB PNG world and for
 the turned world behind a Mix Shader that shows the camera a plain colour
 (Light Path's Is Camera Ray), and a Cycles capture beside two emitting cubes,
-one seen only by reflections, one only by the camera.
+one seen only by reflections, one only by the camera, and a point lamp.
 Writes their probe paths, and the operator's report for a world that World
 Only cannot resample.
 """
@@ -143,7 +143,12 @@ for name, camera, glossy, x in (("glossy_only", False, True, 1.0), ("camera_only
     cube.data.materials.append(emit)
     cube.visible_camera, cube.visible_glossy = camera, glossy
     lamps[name] = cube
+lamp = bpy.data.objects.new("lamp", bpy.data.lights.new("lamp", "POINT"))
+lamp.data.energy, lamp.data.shadow_soft_size = 1000.0, 0.25
+lamp.location = (0.0, 1.0, 0.0)  # a lamp's term is the lamp path's, not the probe's
+bpy.context.scene.collection.objects.link(lamp)
 outcome, paths = probe_pair("visibility")
+bpy.data.objects.remove(lamp)
 report["visibility"] = {"capture": outcome, "probes": paths,
                         "restored": [[o.visible_camera, o.visible_glossy]
                                      for o in lamps.values()]}
