@@ -1,17 +1,29 @@
-"""glossy.export_environment: the world's environment image as a cube/paraboloid/sphere EXR."""
+"""glossy.export_environment: the world's environment image as a cube/paraboloid/sphere EXR.
+
+The image is exported as the world renders it (its Mapping node and Background
+Strength applied, as a World Only probe is: glossy_addon.world.world_environment);
+a world whose shader Glossy cannot reproduce exports the image as stored, and
+the operator says so.
+"""
 
 import bpy
+import numpy as np
 
 from ..bake import envmap, exr
 from ..bake.envmap import mip
 from ..bake.errors import BakeError
 from ..glossy_addon.paths import check_may_write, output_folder
 from ..glossy_addon.progress import BlenderProgress
-from ..glossy_addon.world import find_environment_image, image_pixels
+from ..glossy_addon.world import (
+    WorldNotReadable,
+    find_environment_image,
+    image_pixels,
+    world_environment,
+)
 
 
 class GLOSSY_OT_export_environment(bpy.types.Operator):
-    """Convert the world's environment image to the chosen layout (and MIP pyramid) as EXR files"""
+    """Export the world's image as the world shows it (Mapping, Strength) to EXR files"""
 
     bl_idname = "glossy.export_environment"
     bl_label = "Export Environment Map"
@@ -31,11 +43,13 @@ class GLOSSY_OT_export_environment(bpy.types.Operator):
         settings = context.scene.glossy
         image = find_environment_image(context.scene.world)
         try:
-            written = self._export(context, settings, image)
+            written, note = self._export(context, settings, image)
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         settings.last_export = str(written[0])
+        if note:
+            self.report({"WARNING"}, note)
         self.report({"INFO"}, f"Glossy wrote {len(written)} file(s) to {written[0].parent}")
         return {"FINISHED"}
 
@@ -51,9 +65,20 @@ class GLOSSY_OT_export_environment(bpy.types.Operator):
         path = folder / f"{stem}_{layout}{size}.exr"
         pixels = image_pixels(image)
         envmap.get_layout("latlong").check_image(pixels)
+        try:  # the world as it renders: its Mapping node and Strength (as World Only)
+            mapping = world_environment(context.scene.world)[1]
+            note = None
+        except WorldNotReadable as error:
+            mapping = None
+            note = f"Glossy exported the image as stored, not as the world shows it ({error})"
         levels = []
         with BlenderProgress(context, "export environment") as progress:
-            converted = envmap.convert(pixels, "latlong", layout, size, progress=progress)
+            transform = mapping.texture_directions if mapping and mapping.moves_directions \
+                else None
+            converted = envmap.convert(pixels, "latlong", layout, size, progress=progress,
+                                       transform=transform)
+            if mapping is not None and mapping.strength != 1.0:
+                converted *= np.float32(mapping.strength)
             if pyramid != "none":
                 levels = mip.pyramid(converted, layout, pyramid)[1:]
         meta = {
@@ -62,6 +87,8 @@ class GLOSSY_OT_export_environment(bpy.types.Operator):
             "size": size,
             "source": image.filepath or image.name,
         }
+        if mapping is not None:
+            meta["world_mapping"] = mapping.to_meta()
         outputs = [(path, converted, meta)]
         for index, level in enumerate(levels, start=1):
             level_path = path.with_name(f"{path.stem}.mip{index}.exr")
@@ -70,7 +97,7 @@ class GLOSSY_OT_export_environment(bpy.types.Operator):
             check_may_write(target_path)
         for target_path, data, data_meta in outputs:
             exr.write(target_path, data, data_meta)
-        return [p for p, _, _ in outputs]
+        return [p for p, _, _ in outputs], note
 
 
 classes = (GLOSSY_OT_export_environment,)

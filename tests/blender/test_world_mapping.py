@@ -41,6 +41,12 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
             np.testing.assert_array_equal(world, plain_world)  # Mapping passes it on)
         else:  # the image as it is (what World Only made before) is wrong
             assert _median_relative(plain_world, cycles) > 0.2, variant
+    # Export Environment writes the world as it renders: the tilted world's export
+    # is its World Only probe, texel for texel, and records the mapping.
+    exported, meta = exr.read(r["export"]["path"])
+    assert r["export"]["status"] == ["FINISHED"]
+    np.testing.assert_array_equal(exported, exr.read(r["variants"]["tilted"]["probes"]["world"])[0])
+    assert meta["world_mapping"]["strength"] == pytest.approx(2.5)
     # An 8-bit sRGB image is decoded as Cycles decodes it: its blue channel is
     # 128/255 everywhere, 0.2158 in linear light (0.502 as stored).
     png = r["png"]

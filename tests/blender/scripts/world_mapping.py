@@ -9,7 +9,8 @@ captured with Cycles (the world as it renders), one resampled from the world
 image (World Only, no render); the same for an 8-bit sRGB PNG world and for
 the turned world behind a Mix Shader that shows the camera a plain colour
 (Light Path's Is Camera Ray), and a Cycles capture beside two emitting cubes,
-one seen only by reflections, one only by the camera, and a point lamp.
+one seen only by reflections, one only by the camera, and a point lamp; the
+tilted world through Export Environment.
 Writes their probe paths, and the operator's report for a world that World
 Only cannot resample.
 """
@@ -92,6 +93,13 @@ for variant in VARIANTS:
     world_for(variant)
     outcome, paths = probe_pair(variant)
     report["variants"][variant] = {"capture": outcome, "probes": paths}
+
+# Export Environment writes the world as it renders, as World Only resamples it.
+world_for("tilted")
+glossy_scene = bpy.context.scene.glossy
+glossy_scene.export_layout, glossy_scene.export_size, glossy_scene.export_mip = "cube", 32, "none"
+report["export"] = {"status": sorted(bpy.ops.glossy.export_environment()),
+                    "path": bpy.path.abspath(glossy_scene.last_export)}
 
 # An 8-bit sRGB PNG world (stored values 0.2-0.8): Cycles decodes it to linear.
 png = bpy.data.images.new("gradient", 64, 32, alpha=False)
