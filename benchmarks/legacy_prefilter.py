@@ -6,7 +6,9 @@ working resolution, kernel integrated over every input texel, heavy tails
 on a coarse copy only when the core is small against the map), with the
 probe converted to lat-long at the map's size. Copied from bake/zonal.py and
 bake/prefilter.py at commit 5f1b839 (what did not change is imported, not
-copied: zonal.apply_row_kernels, prefilter._half_width); not used by Glossy.
+copied: prefilter._half_width); not used by Glossy. zonal.apply_row_kernels is
+copied too, as it was at e0a7db2 (before its narrow kernels' spectra became a
+product with a cosine table), so the baseline keeps its own speed.
 """
 
 import math
@@ -19,13 +21,35 @@ from bake.prefilter import _half_width
 from bake.zonal import (
     _rows,
     _Table,
-    apply_row_kernels,
     checked_arguments,
     kernel_integral,
     suggested_supersample,
 )
 
 _ROW_CHUNK_BYTES = 1 << 27
+
+
+def apply_row_kernels(half_weights, band_spectrum, width, target=None):
+    """Output rows from per-row kernels over an input band, by circular convolution.
+
+    half_weights: (A, B, W // 2 + 1) kernel weights of A output rows over B
+    input rows at longitude offsets 0..W/2 (the kernel is even in longitude:
+    the other half is mirrored here); band_spectrum: (B, W // 2 + 1, C)
+    row spectra of those input rows; target: the kernel's exact integral, to
+    which each output row's weights are rescaled (None: no rescaling).
+    Returns (A, W, C) float32: for every frequency a (rows x band) by
+    (band x channels) product (batched BLAS), then the inverse transform.
+    """
+    weights = np.concatenate([half_weights,
+                              half_weights[:, :, 1:width - width // 2][:, :, ::-1]], 2)
+    if target is not None:
+        totals = weights.sum(axis=(1, 2))
+        scale = np.where(totals > 0, target / np.where(totals > 0, totals, 1.0), 0.0)
+        weights *= scale[:, None, None]
+    kernel_spectrum = np.fft.rfft(weights, axis=2)  # (A, B, F)
+    combined = np.matmul(kernel_spectrum.transpose(2, 0, 1),
+                         band_spectrum.transpose(1, 0, 2)).transpose(1, 0, 2)
+    return np.fft.irfft(combined, n=width, axis=1).astype(np.float32)
 
 
 def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, normalize=True,
