@@ -439,7 +439,7 @@ def _add_prefilter_options(p, with_brdf=True):
                         "width and the probe's detail, at most --max-size); split-sum: the "
                         "base cube face (required)")
     p.add_argument("--max-size", type=int, default=None,
-                   help="upper bound of an auto size (default 256)")
+                   help="upper bound of an auto size (default 384)")
     p.add_argument("--slices", type=int, default=16, help="view elevations K (default 16)")
     p.add_argument("--lobes", type=int, default=1, help="lobes per slice (3d, default 1)")
     p.add_argument("--levels", type=int, help="split-sum MIP levels (default 6, fewer if small)")

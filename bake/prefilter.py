@@ -55,8 +55,12 @@ PRESETS = {
     "filament": lambda x: 1.0 - math.sqrt(max(1.0 - x, 0.0)),  # cmgen: lod = r (2 - r)
 }
 MAX_SIZE = 2048
-#: Upper bound of an Auto size when none is given (the Blender default too).
-DEFAULT_MAX_SIZE = 256
+#: Upper bound of an Auto size when none is given (the Blender default too): the
+#: largest at which the default method's bake of the narrowest lobes (GGX
+#: 0.05-0.2, whose Auto size is 1000-1600 rows) stays under issue 10's 3 s from a
+#: 128 px probe on the 2-core machine (benchmarks/prefilter.py 5: 2.0-2.4 s at
+#: 384 rows, 1.4-1.5 s at 256; 512 rows would take about 3 s).
+DEFAULT_MAX_SIZE = 384
 FORMAT = 1
 
 

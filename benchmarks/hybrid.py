@@ -61,8 +61,9 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 ROUGHNESS = (0.1, 0.2, 0.3, 0.45, 0.6)
 EDGES = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0)
 BUDGETS = (19, 61, 127)
-#: The default Max Map Size, which bounds the runtime level stack's rows in the bake.
-STACK_ROWS_MAX = 256
+#: The default Max Map Size, which bounds the runtime level stack's rows in the bake
+#: (operators.bake_materials.runtime_height, rounded down to a power of two: 256).
+STACK_ROWS_MAX = prefilter.DEFAULT_MAX_SIZE
 #: (HDRI, roughness) -> the probe face :func:`renders` used.
 FACES_USED = {}
 
@@ -80,11 +81,11 @@ def hdri_directory():
 def runtime_twin(cube, spec, budget, normals, views, lights=()):
     """(N, 3) the Runtime Sampling nodes' radiance (bake.sampling_runtime.shade, their
     NumPy twin) with the level stack glossy.bake_materials makes for this probe
-    (operators.bake_materials.runtime_height at Auto: twice the face's rows, a
-    power of two, at most the default Max Map Size, 256): the estimate the Hybrid
+    (operators.bake_materials.runtime_height at Auto: twice the face's rows, at
+    most the default Max Map Size, rounded down to a power of two): the estimate the Hybrid
     blends; with ``lights`` (``cube`` then the residual), their exact term is
     included."""
-    rows = min(STACK_ROWS_MAX, 1 << int(np.floor(np.log2(2 * cube.shape[0]))))
+    rows = 1 << int(np.floor(np.log2(min(STACK_ROWS_MAX, 2 * cube.shape[0]))))
     atlas, meta = sampling_runtime.pack(cube, spec, layout="cube", budget=budget, height=rows,
                                         lights=lights)
     return sampling_runtime.shade(atlas, meta, normals, views)

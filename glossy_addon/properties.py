@@ -2,6 +2,8 @@
 
 import bpy
 
+from ..bake.prefilter import DEFAULT_MAX_SIZE
+
 LAYOUT_ITEMS = [
     ("cube", "Cube", "OpenGL cube strip (N x 6N) in glTF's Y-up frame"),
     ("latlong", "Lat-Long", "Blender's Environment Texture layout (N x 2N)"),
@@ -227,7 +229,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Map Size",
         description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
                     "(Auto; bake time grows with its square)",
-        default=256, min=0, max=1024)
+        default=DEFAULT_MAX_SIZE, min=0, max=1024)
     lamps: bpy.props.BoolProperty(
         name="Lamps", description="Bake separable BRDF factors (Kautz & McCool 1999) so the "
         "attached material responds to the scene's lamps", default=True)
