@@ -14,6 +14,9 @@ Per object, from images (H, W, 3) of the whole frame and the object's mask
   ``reference``) gets :func:`bake.metrics.compare` against the truth.
 - ``glossy_vs_reference``: Glossy against the NumPy reference, the method's
   own error under distant lighting (no probe, parallax or occlusion error).
+- with two Cycles seeds, each method's ``relative_rms_per_seed``: its relative
+  RMS against each seed's render alone, so :func:`ordering` can tell whether
+  one figure being below another holds whichever seed is the truth.
 
 The truth is flagged too noisy when its noise is not below a quarter of the
 smallest error reported against it.
@@ -28,7 +31,8 @@ import numpy as np
 from . import metrics, outputs, preview
 from .bitmap_font import GLYPHS, HEIGHT, WIDTH
 
-__all__ = ["evaluate_object", "object_sheet", "write_report", "markdown", "METHOD_TITLES"]
+__all__ = ["evaluate_object", "ordering", "object_sheet", "write_report", "markdown",
+           "METHOD_TITLES"]
 
 METHOD_TITLES = {
     "cycles": "Cycles",
@@ -62,6 +66,9 @@ def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
         if image is None or (method == "reference" and out["truth"] == "reference"):
             continue
         out["methods"][method] = metrics.compare(image, truth, mask)
+        if cycles_seeds is not None:
+            out["methods"][method]["relative_rms_per_seed"] = [
+                metrics.relative_rms(image, seed, mask) for seed in cycles_seeds]
     if renders.get("eevee_glossy") is not None and renders.get("reference") is not None \
             and out["truth"] == "cycles":
         out["glossy_vs_reference"] = metrics.compare(renders["eevee_glossy"],
@@ -70,6 +77,32 @@ def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
     out["truth_too_noisy"] = bool(out["cycles_noise"] is not None and errors
                                   and out["cycles_noise"] > NOISE_FRACTION * min(errors))
     return out
+
+
+def ordering(first: dict, second: dict, method="eevee_glossy") -> dict:
+    """Whether ``method``'s error in ``first`` is below its error in ``second``: two
+    :func:`evaluate_object` figures of the same object and camera (two materials or
+    methods rendered one after the other, each validated with the same Cycles seeds).
+
+    Returns {"mean": bool (against the mean of the seeds: the reported figures),
+    "per_seed": [bool, bool] or None (against each seed alone), "reference": bool
+    or None (against the NumPy reference over the same probe, which has no noise:
+    ``glossy_vs_reference``), "decided_by_noise": bool (the two seeds disagree, so
+    Cycles' noise decides the order at this sample count)}.
+    """
+    a, b = first["methods"][method], second["methods"][method]
+    seeds = None
+    if "relative_rms_per_seed" in a and "relative_rms_per_seed" in b:
+        seeds = [bool(x < y) for x, y in zip(a["relative_rms_per_seed"],
+                                             b["relative_rms_per_seed"], strict=True)]
+    reference = None
+    if "glossy_vs_reference" in first and "glossy_vs_reference" in second \
+            and method == "eevee_glossy":
+        reference = bool(first["glossy_vs_reference"]["relative_rms"]
+                         < second["glossy_vs_reference"]["relative_rms"])
+    return {"mean": bool(a["relative_rms"] < b["relative_rms"]), "per_seed": seeds,
+            "reference": reference,
+            "decided_by_noise": bool(seeds is not None and seeds[0] != seeds[1])}
 
 
 def _draw_text(image, text, x, y, colour=(255, 255, 255)):

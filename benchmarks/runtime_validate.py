@@ -10,8 +10,13 @@ EEVEE with Glossy's material, native EEVEE at the scene's defaults and with
 the careful user's settings (world sun_threshold 0, clamp_surface_indirect
 0), the NumPy reference (distant lighting through the same probe: what
 Glossy's method could reach), all against Cycles (two seeds), and Cycles'
-own noise (from the two seeds). One sphere per run, so every figure sees the
-same pixels.
+own noise (from the two seeds), then Glossy's figure against each seed alone
+and against the NumPy reference (no noise). One sphere per run, so every
+figure sees the same pixels. With two or more cases, each HDRI ends with
+whether the first case's Glossy error is below each other case's against the
+mean of the seeds, each seed alone and the NumPy reference
+(bake.validation.ordering): an order the two seeds disagree on is decided by
+Cycles' noise at that sample count.
 
     .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
         [--eevee 4] [--probe 64|auto] [--hdri sunset|PATH.exr ...]
@@ -35,6 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from bake import validation  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 CASES = ("3d:0.3:0:19", "runtime:0.3:0:19", "hybrid:0.3:0:19", "runtime:0.3:0.8:14")
@@ -71,8 +77,11 @@ def main():
     print(f"{args.size}^2 px, Cycles 2 x {args.cycles} spp, EEVEE {args.eevee} samples, "
           f"probe {args.probe}; relative RMS of luminance against Cycles", flush=True)
     print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "
-          f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s} {'face':>5s}", flush=True)
-    for case in args.case or CASES:
+          f"{'NumPy ref':>9s} {'noise':>6s} {'run s':>6s} {'face':>5s} "
+          f"{'seed 1':>7s} {'seed 2':>7s} {'vs ref':>7s}", flush=True)
+    cases = args.case or CASES
+    figures_of = {}  # (hdri, case) -> figures
+    for case in cases:
         method, roughness, anisotropy, samples, *principled = case.split(":")
         for hdri in hdris:
             work = Path(tempfile.mkdtemp(prefix="glossy-rv-"))
@@ -94,13 +103,33 @@ def main():
                 tail = (process.stderr or process.stdout).strip().splitlines()[-1:]
                 print(f"{Path(hdri).stem:10s} {case:22s} failed: {tail}", flush=True)
                 continue
+            figures_of[(hdri, case)] = figures
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
             face = re.search(r"(\d+) px", result["S"].get("probe_reason", ""))
+            seeds = figures["methods"]["eevee_glossy"].get("relative_rms_per_seed",
+                                                          [float("nan")] * 2)
+            own = figures.get("glossy_vs_reference", {}).get("relative_rms", float("nan"))
             print(f"{Path(hdri).stem:10s} {case:22s} {rms['eevee_glossy']:7.3f} "
                   f"{rms['eevee_native']:7.3f} "
                   f"{rms.get('eevee_native_careful', float('nan')):7.3f} "
                   f"{rms['reference']:9.3f} {figures['cycles_noise']:6.3f} {seconds:6.0f} "
-                  f"{face.group(1) if face else '?':>5s}", flush=True)
+                  f"{face.group(1) if face else '?':>5s} {seeds[0]:7.4f} {seeds[1]:7.4f} "
+                  f"{own:7.4f}", flush=True)
+    if len(cases) > 1:
+        print(f"\nIs {cases[0]}'s Glossy error below the other case's? (against the mean of "
+              f"the seeds / seed 1 / seed 2 / the NumPy reference)")
+        for hdri in hdris:
+            for other in cases[1:]:
+                pair = figures_of.get((hdri, cases[0])), figures_of.get((hdri, other))
+                if None in pair:
+                    continue
+                verdict = validation.ordering(*pair)
+                seeds = verdict["per_seed"] or [None, None]
+                words = ["yes" if x else "no" if x is not None else "-"
+                         for x in (verdict["mean"], *seeds, verdict["reference"])]
+                print(f"{Path(hdri).stem:10s} vs {other:22s} {' / '.join(words)}"
+                      + ("   (decided by Cycles' noise)" if verdict["decided_by_noise"] else ""),
+                      flush=True)
 
 
 if __name__ == "__main__":

@@ -38,10 +38,9 @@ def _lobe_widths(obj):
             continue
         settings = material.glossy
         method = settings.method_used()
-        if method in ("runtime", "hybrid"):  # the sampled lobe's narrow axis
+        if method in ("runtime", "hybrid"):  # the sampled lobe, at every view elevation
             try:
-                lobe, _ = sampling_runtime.check(settings.brdf_spec(), settings.samples)
-                widths.append(resolution.ggx_half_width(min(lobe.mx, lobe.my)))
+                widths += sampling_runtime.probe_widths(settings.brdf_spec(), settings.samples)
             except (BakeError, ValueError):
                 pass  # refused by the bake, which says so
             if method == "runtime" or settings.anisotropy != 0.0:

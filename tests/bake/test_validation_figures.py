@@ -1,0 +1,63 @@
+"""bake.validation's per-seed figures and ordering verdict, against the sums
+written out on synthetic images."""
+
+import numpy as np
+
+from bake import validation
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def _images(seed=0, shape=(24, 32)):
+    rng = np.random.default_rng(seed)
+    truth = rng.uniform(0.5, 2.0, (*shape, 3))
+    noise = 0.05
+    a = truth * (1.0 + noise * rng.standard_normal((*shape, 3)))
+    b = truth * (1.0 + noise * rng.standard_normal((*shape, 3)))
+    mask = np.zeros(shape, bool)
+    mask[2:-2, 3:-3] = True
+    return truth, a, b, mask
+
+
+def _relative_rms(test, reference, mask):
+    t, r = test[mask] @ LUMINANCE, reference[mask] @ LUMINANCE
+    return np.sqrt(np.sum((t - r) ** 2) / np.sum(r ** 2))
+
+
+def test_per_seed_figures_are_the_relative_rms_against_each_seed():
+    truth, a, b, mask = _images()
+    glossy = truth * 1.03
+    figures = validation.evaluate_object({"eevee_glossy": glossy, "reference": truth}, mask,
+                                         (a, b))
+    per_seed = figures["methods"]["eevee_glossy"]["relative_rms_per_seed"]
+    assert per_seed == [_relative_rms(glossy, a, mask), _relative_rms(glossy, b, mask)]
+    # Without Cycles the reference is the truth and there is no per-seed figure.
+    alone = validation.evaluate_object({"eevee_glossy": glossy, "reference": truth}, mask)
+    assert "relative_rms_per_seed" not in alone["methods"]["eevee_glossy"]
+
+
+def test_ordering_holds_on_both_seeds_when_the_gap_is_above_the_noise():
+    truth, a, b, mask = _images(1)
+    close = validation.evaluate_object({"eevee_glossy": truth * 1.01, "reference": truth},
+                                       mask, (a, b))
+    far = validation.evaluate_object({"eevee_glossy": truth * 1.2, "reference": truth},
+                                     mask, (a, b))
+    verdict = validation.ordering(close, far)
+    assert verdict == {"mean": True, "per_seed": [True, True], "reference": True,
+                       "decided_by_noise": False}
+    assert validation.ordering(far, close)["mean"] is False
+
+
+def test_ordering_is_decided_by_noise_when_each_method_sits_on_one_seed():
+    # Each "method" equals one seed's render: against that seed it is exact, against
+    # the other it carries both seeds' noise, so the order flips with the seed; the
+    # noise-free reference (the truth itself) cannot tell them apart by more than
+    # their own noise, and the mean of the seeds sees them equally far.
+    truth, a, b, mask = _images(2)
+    first = validation.evaluate_object({"eevee_glossy": a, "reference": truth}, mask, (a, b))
+    second = validation.evaluate_object({"eevee_glossy": b, "reference": truth}, mask, (a, b))
+    verdict = validation.ordering(first, second)
+    assert verdict["per_seed"] == [True, False]
+    assert verdict["decided_by_noise"] is True
+    expected = _relative_rms(a, truth, mask) < _relative_rms(b, truth, mask)
+    assert verdict["reference"] is bool(expected)
