@@ -163,7 +163,8 @@ class Light:
 
 
 def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXELS,
-            max_lights=MAX_LIGHTS, max_spread=None, tile_radius=None, require_all=False):
+            max_lights=MAX_LIGHTS, max_spread=None, tile_radius=None, require_all=False,
+            prepared=None):
     """(residual, lights) of a probe (H, W, 3) in ``layout`` (module doc).
 
     residual: float32 (H, W, 3), the probe with each taken texel scaled down
@@ -175,27 +176,17 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     lights of this radius (None: they stay in the probe). :func:`limits_for`
     gives both for a lobe. ``require_all``: return None, as soon as it is
     known, when some bright region cannot be taken within ``max_lights``
-    (:func:`extract_for`'s ladder of thresholds).
+    (:func:`extract_for`'s ladder of thresholds). ``prepared``: this probe's
+    :func:`_prepare` (the ladder computes it once), else computed here.
     """
-    image = np.asarray(probe)
-    if image.ndim != 3 or image.shape[2] < 3:
-        raise BakeError(f"a probe is (H, W, 3), not {image.shape}")
-    if not np.all(np.isfinite(image[..., :3])):
-        raise BakeError("the probe has non-finite texels (NaN or infinity)")
+    image, directions, omega, radiance, luminance, mean = prepared or _prepare(probe, layout)
     if threshold <= 1.0 or radius_texels <= 0 or max_lights < 0:
         raise BakeError("threshold must exceed 1, radius_texels be positive and max_lights "
                         "at least 0")
     if tile_radius is not None and not tile_radius > 0:
         raise BakeError(f"tile_radius must be positive, not {tile_radius}")
-    grid = get_layout(layout)
-    shape = image.shape[:2]
-    directions, omega = _geometry(grid.name, shape)
-    radiance = image[..., :3].reshape(-1, 3).astype(np.float64)
-    luminance = radiance @ LUMINANCE
-    mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
-    residual = image[..., :3].astype(np.float32).copy()
     if mean <= 0.0 or max_lights == 0:
-        return residual, []
+        return image[..., :3].astype(np.float32).copy(), []
     level = threshold * mean
     bright = np.nonzero(luminance > level)[0]
     bright = bright[np.argsort(-luminance[bright], kind="stable")]
@@ -231,6 +222,7 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
         candidates.append((float(np.sum(weights)), parts))
     candidates.sort(key=lambda c: -c[0])
     lights = []
+    residual = image[..., :3].astype(np.float32).copy()
     flat = residual.reshape(-1, 3)
     for _, parts in candidates:
         if len(lights) + len(parts) > max_lights:
@@ -246,6 +238,23 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
                                 spread, tile, float(threshold)))
             flat[texels] = (radiance[texels] * scale[:, None]).astype(np.float32)
     return residual, lights
+
+
+def _prepare(probe, layout):
+    """(image, directions (T, 3), solid angles (T,), radiance (T, 3) float64,
+    luminance (T,), mean luminance over the sphere) of a checked probe: what
+    :func:`extract` reads, computed once for :func:`extract_for`'s ladder (a probe
+    of 1024 px faces is split about 14 times)."""
+    image = np.asarray(probe)
+    if image.ndim != 3 or image.shape[2] < 3:
+        raise BakeError(f"a probe is (H, W, 3), not {image.shape}")
+    if not np.all(np.isfinite(image[..., :3])):
+        raise BakeError("the probe has non-finite texels (NaN or infinity)")
+    directions, omega = _geometry(get_layout(layout).name, image.shape[:2])
+    radiance = image[..., :3].reshape(-1, 3).astype(np.float64)
+    luminance = radiance @ LUMINANCE
+    mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
+    return image, directions, omega, radiance, luminance, mean
 
 
 @functools.lru_cache(maxsize=4)
@@ -462,9 +471,11 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
     largest = float(get_layout(layout).solid_angles(np.asarray(probe).shape[:2]).max())
     limits["max_spread"] = compact_spread_for(min(ax, ax if ay is None else ay), largest)
 
+    prepared = _prepare(probe, layout)
+
     def split_at(threshold):
         return extract(probe, layout, threshold=threshold, max_lights=max_lights,
-                       require_all=True, **limits)
+                       require_all=True, prepared=prepared, **limits)
 
     fits, fails = None, None  # (threshold, split) of the lowest rung that fits; the rung below
     for threshold in THRESHOLDS:
@@ -483,7 +494,7 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
             fails = threshold
     if fits is None:
         return extract(probe, layout, threshold=THRESHOLDS_ABOVE[-1], max_lights=max_lights,
-                       **limits)
+                       prepared=prepared, **limits)
     if fails is not None:  # between two rungs: REFINE_STEPS halvings of the ratio
         for _ in range(REFINE_STEPS):
             middle = float(f"{math.sqrt(fits[0] * fails):.4g}")

@@ -305,17 +305,20 @@ def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid
     ``steps``: a list that receives the duration of each step (a UI timer tick).
     ``hybrid_too``: also the Hybrid's runtime-sampling texture, what the default
     method (Auto) bakes for an isotropic GGX lobe (glossy_addon.method_choice):
-    the level stack of the probe's own detail (twice a face's rows), 19
-    samples, the blend weights, written beside the map; with Probe Lights on (the
-    default), both from the probe without its small bright lights."""
+    the level stack of the probe's own detail (twice a face's rows, at most the
+    default Max Map Size, rounded down to a power of two, as
+    operators.bake_materials.runtime_height gives it), 19 samples, the blend
+    weights, written beside the map; with Probe Lights on (the default), both
+    from the probe without its small bright lights."""
     start = time.perf_counter()
     glossy_probe = probe
     if hybrid_too:
         tick = time.perf_counter()
         lobe = sampling_runtime.check(spec)[0]
         glossy_probe, lights = probe_lights.extract_kept(probe, "cube", lobe.mx, lobe.my)
-        image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19,
-                                            height=2 * probe.shape[0], lights=lights)
+        rows = 1 << int(np.floor(np.log2(min(2 * probe.shape[0], prefilter.DEFAULT_MAX_SIZE))))
+        image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19, height=rows,
+                                            lights=lights)
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),
                                                samples=len(meta["prob"]))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})

@@ -150,6 +150,14 @@ def runtime_height(settings, probe, layout) -> tuple:
     return rows, why
 
 
+def _light_steps(probe, layout, ax, ay):
+    """bake.probe_lights.extract_kept as steps (no bpy: runs on a worker thread, so
+    the UI stays responsive: a probe of 1024 px faces takes about 5 s here): one
+    message, then (residual probe, lights)."""
+    yield 0.0, "taking the probe's small bright lights out (Probe Lights)"
+    return probe_lights.extract_kept(probe, layout, ax, ay)
+
+
 def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=()):
     """The runtime-sampling texture (bake.sampling_runtime.pack) of ``rows``
     lat-long rows as steps (no bpy: runs on a worker thread): one message, then
@@ -332,7 +340,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             # The sampled part and the Hybrid's map see the probe without its small
             # bright lights; the lights are shaded exactly (bake.probe_lights).
             lobe = sampling_runtime.check(spec, settings.samples)[0]
-            glossy_probe, lights = probe_lights.extract_kept(probe, layout, lobe.mx, lobe.my)
+            glossy_probe, lights = yield from scaled_steps(background_steps(_light_steps(
+                probe, layout, lobe.mx, lobe.my)), 0.1 if lamp_path is not None else 0.0, 0.1)
         if sampled or runtime_path is not None:
             rows, why = runtime_height(settings, probe, layout)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
