@@ -8,6 +8,7 @@ import numpy as np
 
 from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime
 from ..bake.errors import BakeError
+from ..bake.progress import background_steps
 from ..glossy_addon import ownership
 from ..glossy_addon.capture import CubeCapture
 from ..glossy_addon.centres import probe_centre
@@ -98,8 +99,10 @@ def _world_detail_steps(context, face, reason, detail, cache):
     key = (image.name, round(width, 7), face, cap)
     if key not in cache:
         try:
-            cache[key] = yield from probe_detail.world_face_steps(image_pixels(image), width,
-                                                                  face, cap)
+            # The pixels through bpy here; the measuring (pure NumPy, up to a minute for
+            # a 4096 x 2048 world) on a worker thread, so the UI stays responsive.
+            cache[key] = yield from background_steps(probe_detail.world_face_steps(
+                image_pixels(image), width, face, cap))
         except (BakeError, ValueError) as error:  # e.g. NaN texels: the lobe rule stands
             cache[key] = str(error)
     if isinstance(cache[key], str):
