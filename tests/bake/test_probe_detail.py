@@ -79,3 +79,32 @@ def test_the_face_ladder_steps_by_a_quarter_in_multiples_of_8():
     assert probe_detail.face_ladder(72, 168) == [72, 96, 120, 152, 168]
     assert probe_detail.face_ladder(8, 16) == [8, 16]
     assert probe_detail.choose_world_face(_world(64), 0.05, 72, 72)[0] == 72
+
+
+def test_a_world_measured_before_in_the_session_is_not_measured_again():
+    """The second capture of the same world for the same lobe returns the first's
+    result after one step; one changed texel is a new world, measured again (and
+    its result is what the measurement itself gives, not the cached one)."""
+    width, lobe_face = 0.0558, 72
+    cap = resolution.world_detail_face(256)
+    world = _world(256, 1.7e4)  # a world no other test measures
+
+    def run(image):
+        steps = probe_detail.world_face_steps(image, width, lobe_face, cap)
+        messages = []
+        while True:
+            try:
+                messages.append(next(steps)[1])
+            except StopIteration as done:
+                return done.value, messages
+
+    first, measured = run(world)
+    second, remembered = run(world.copy())
+    assert second == first and len(measured) > 1
+    assert remembered == ["the world's detail for this lobe, measured before in this session"]
+    changed = world.copy()
+    changed[200, 100] = 7.0  # a smooth-sky texel, far from the lamp
+    third, again = run(changed)
+    assert len(again) > 1
+    detail = probe_detail.WorldDetail(changed, width)
+    assert [e for _, e in third[2]] == [detail.error(f) for f, _ in third[2]]
