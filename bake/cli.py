@@ -268,13 +268,15 @@ def cmd_reference(args):
         raise BakeError("no pixel to render: the buffers hold no surface")
     progress = None if args.quiet else LinePrinter()
     radiance = reference.render(model, probe, layout, normals[mask], views[mask],
-                                tolerance=args.tolerance, progress=progress)
+                                tolerance=args.tolerance, progress=progress,
+                                reconstruction=args.reconstruction)
     image = np.zeros((*mask.shape, 4), dtype=np.float32)
     image[mask, :3] = radiance
     image[mask, 3] = 1.0
     exr.write(output, image, _meta(args, layout, probe.shape[:2], {
         "kind": "reference", "brdf": model.spec, "probe": Path(args.input).name,
-        "pixels": pixels, "tolerance": args.tolerance, **source}))
+        "pixels": pixels, "tolerance": args.tolerance,
+        "reconstruction": args.reconstruction, **source}))
     print(f"wrote {output} ({pixels} pixels, {model.spec} against {Path(args.input).name})")
 
 
@@ -524,6 +526,10 @@ def _build_parser():
     p.add_argument("--tolerance", type=float, default=None,
                    help="relative error budget per block (default: bake.reference's; 0 = "
                         "every texel)")
+    p.add_argument("--reconstruction", choices=("bilinear", "texels"), default="bilinear",
+                   help="integrate the probe's bilinear reconstruction, sampled finer where "
+                        "the lobe is narrow against a texel (default; what a renderer "
+                        "sees), or sum its texel centres as point lights")
     p.add_argument("-o", "--output", required=True, help="output EXR (RGBA, A = surface)")
     p.add_argument("--sanitize", action="store_true", help="replace NaN/inf probe texels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")

@@ -27,6 +27,20 @@ Two implementations of the same sum:
   Measured against the loop (tests/bake/test_reference.py,
   benchmarks/validate.py): relative RMS differences of 1e-5 to 4e-4 at the
   default tolerance; tolerance 0 reproduces it to rounding.
+
+Both sum over texel centres: the probe as point lights. A renderer sees the
+probe as a function, its bilinear reconstruction (GPU texture sampling,
+Cycles' Linear interpolation of the world), and for a lobe narrower than a
+few texels the texel sum is a coarse, aliased quadrature of that function's
+integral: on a sphere, against the sum over the reconstruction 16x finer, it
+is 9% off in night.exr at GGX 0.3 through 64 px faces and 5% in
+interior.exr at GGX 0.2 through 128 px faces (0.03-0.2% at GGX 0.6;
+benchmarks/reference_reconstruction.py). ``reconstruction="bilinear"``
+integrates the reconstruction instead: the same sum over the probe resampled
+bilinearly to :func:`reconstruction_factor` times its resolution (a power of
+two), chosen so that sub-texels are at most a sixteenth of the median lobe
+width apart (1 where the lobe spans enough texels, so wide lobes cost nothing
+more), within a memory bound. glossy.validate's reference uses it.
 """
 
 import os
@@ -41,7 +55,8 @@ from .envmap import get_layout
 from .progress import report
 
 __all__ = ["reflected_radiance", "render", "render_steps", "sphere_buffers", "vector_layer",
-           "has_layer", "pixel_arrays", "DEFAULT_TOLERANCE"]
+           "has_layer", "pixel_arrays", "reconstruction_factor", "DEFAULT_TOLERANCE",
+           "RECONSTRUCTIONS"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Largest block edge (texels) of the pyramid's top level.
@@ -52,6 +67,27 @@ DEFAULT_TOLERANCE = 5e-4
 SEED_SAMPLES = 24
 #: (pixel, child) evaluations per batch: bounds memory (~100 MB of temporaries).
 BATCH = 1 << 17
+#: Most (pixel, top block) pairs a chunk of pixels starts with: each pair holds
+#: about 200 bytes through a level, so this bounds a chunk's memory to ~0.2 GB.
+TOP_PAIRS = 1 << 20
+#: What the sum integrates: the texels as point lights, or the probe's bilinear
+#: reconstruction (render_steps' ``reconstruction``).
+RECONSTRUCTIONS = ("texels", "bilinear")
+#: Largest sub-texel spacing of the bilinear reconstruction, as a fraction of the
+#: pixels' median lobe width (reconstruction_factor). Measured on the bundled
+#: HDRIs (benchmarks/reference_reconstruction.py): the texel sum is up to 9% off
+#: (night.exr, GGX 0.3 through 64 px faces, 5 texels a median width); a grid
+#: of 8 samples a width left up to 0.74% there, 16 samples a width 0.2%.
+SUBTEXEL_SPACING = 1.0 / 16.0
+#: Percentile of the pixels' lobe widths that sets the factor (the median: the
+#: narrow-axis width of grazing pixels falls steeply and a low percentile would
+#: follow how many of them the image happens to hold).
+WIDTH_PERCENTILE = 50.0
+#: Most texels the finer grid may hold: the pyramid keeps about 100 bytes a texel,
+#: so about 1 GiB (a 328 px cube probe 4x finer).
+MAX_RECONSTRUCTION_TEXELS = (1 << 30) // 100
+#: Pixels whose lobes are sampled to find the narrowest width.
+WIDTH_PIXELS = 4096
 
 
 def _frames(normals, tangents, tangent_hint):
@@ -272,20 +308,88 @@ def _evaluate(model, frames, wo_local, directions, flux, pixel):
     return values.sum(axis=1), values
 
 
+def reconstruction_factor(model, probe_shape, layout, normals, views, *, tangents=None,
+                          tangent_hint=(0.3, 0.5, 0.8)):
+    """(factor, reason): how many times finer than the probe (per side) the bilinear
+    reconstruction must be sampled for the texel sum over it to converge.
+
+    The lobe width is the narrow-axis width :func:`_lobe_widths` gives (from the
+    BRDF's own importance samples), its WIDTH_PERCENTILE percentile over up to
+    WIDTH_PIXELS of the pixels; the texel angle is the square root of the
+    probe's largest texel solid angle (a cube face's centre, a lat-long's
+    equator); the factor is the least power of two at least texel /
+    (SUBTEXEL_SPACING x width), at least 1, at most the largest power of two
+    that keeps the finer grid within MAX_RECONSTRUCTION_TEXELS (the reason then
+    says so). Powers of two keep the texel pyramid as deep as the probe's own
+    (its blocks halve down to the same top level). probe_shape: (H, W) of the
+    probe in ``layout``.
+    """
+    layout = get_layout(layout)
+    normals, views, tangents = pixel_arrays(normals, views, tangents)
+    if not len(normals):
+        return 1, "no pixels"
+    stride = max(1, len(normals) // WIDTH_PIXELS)
+    frames = _frames(normals[::stride], None if tangents is None else tangents[::stride],
+                     tangent_hint)
+    wo_local = np.einsum("pij,pj->pi", frames, views[::stride])
+    widths = _lobe_widths(_seeds(model, frames, wo_local, SEED_SAMPLES))
+    width = float(np.percentile(widths, WIDTH_PERCENTILE))
+    texel = float(np.sqrt(layout.solid_angles(tuple(probe_shape[:2])).max()))
+    needed = texel / (SUBTEXEL_SPACING * max(width, 1e-9))
+    wanted = 1 << max(0, int(np.ceil(np.log2(max(needed, 1.0)) - 1e-9)))
+    texels = float(probe_shape[0] * probe_shape[1])
+    allowed = 1 << max(0, int(np.floor(0.5 * np.log2(max(MAX_RECONSTRUCTION_TEXELS / texels,
+                                                          1.0)))))
+    factor = min(wanted, allowed)
+    reason = (f"lobe {np.degrees(width):.3g} deg (median over the pixels) against "
+              f"{np.degrees(texel):.3g} deg texels")
+    if factor < wanted:
+        reason += f"; {wanted}x wanted, {factor}x within the memory bound"
+    return factor, reason
+
+
+def _bilinear_grid(probe, layout, factor):
+    """The probe's bilinear reconstruction at its texel layout ``factor`` times finer
+    per side (the layout's size scaled), as float32 (H', W', 3)."""
+    from .envmap import convert
+
+    size = layout.size_of(probe.shape[:2])
+    return convert(np.asarray(probe[..., :3], dtype=np.float32), layout, layout,
+                   size * factor, samples=1)
+
+
 def render_steps(model, probe, layout, normals, views, *, tangents=None,
-                 tangent_hint=(0.3, 0.5, 0.8), tolerance=None, chunk=512, threads=None):
+                 tangent_hint=(0.3, 0.5, 0.8), tolerance=None, chunk=512, threads=None,
+                 reconstruction="texels"):
     """:func:`render` as a generator: yields (fraction, message) after each chunk of
     pixels and returns the (N, 3) radiance. Chunks run on ``threads`` worker
     threads (default: two, or one on a single core; NumPy releases the GIL in
     the array work), at most one chunk ahead per thread; closing the generator
-    (Esc) cancels the chunks not started and waits only for those running."""
+    (Esc) cancels the chunks not started and waits only for those running.
+    ``reconstruction``: ``texels`` (the sum over texel centres, :func:`reflected_radiance`'s)
+    or ``bilinear`` (the sum over the probe's bilinear reconstruction at
+    :func:`reconstruction_factor` times its resolution; the first message says
+    which factor and why)."""
     layout = get_layout(layout)
     probe = np.asarray(probe)
     normals, views, tangents = pixel_arrays(normals, views, tangents)
     tolerance = DEFAULT_TOLERANCE if tolerance is None else float(tolerance)
+    if reconstruction not in RECONSTRUCTIONS:
+        raise ValueError(f"reconstruction must be one of {', '.join(RECONSTRUCTIONS)}, "
+                         f"not {reconstruction!r}")
+    if reconstruction == "bilinear":
+        factor, why = reconstruction_factor(model, probe.shape, layout, normals, views,
+                                            tangents=tangents, tangent_hint=tangent_hint)
+        if factor > 1:
+            probe = _bilinear_grid(probe, layout, factor)
+        yield 0.0, f"reference: the probe's bilinear reconstruction at {factor}x ({why})"
     levels = _pyramid(probe, layout)
     out = np.zeros((len(normals), 3))
     threads = threads or min(2, os.cpu_count() or 1)
+    # A chunk starts with every (pixel, top block) pair: bound their number (a
+    # probe face with a large odd factor, e.g. 328 = 8 x 41, stops its pyramid at
+    # 8-texel blocks, 10086 of them).
+    chunk = max(1, min(int(chunk), TOP_PAIRS // max(len(levels[-1].directions), 1)))
 
     def job(start):
         stop = min(start + chunk, len(normals))
@@ -380,17 +484,18 @@ def _sum_rgb(pixel, values, count):
 
 
 def render(model, probe, layout, normals, views, *, tangents=None, tangent_hint=(0.3, 0.5, 0.8),
-           tolerance=None, chunk=512, progress=None):
+           tolerance=None, chunk=512, progress=None, reconstruction="texels"):
     """(N, 3) reflected radiance of ``model`` lit by ``probe`` (H, W, 3 in ``layout``)
     for world-space unit normals and views (surface to viewer), (N, 3) each.
 
     Vectorized over ``chunk`` pixels at a time (memory stays bounded) and
     adaptive over the probe's texel pyramid (see the module docstring);
     ``tangents`` (N, 3) orient anisotropic BRDFs. ``progress(fraction, message)``
-    is called after each chunk.
+    is called after each chunk. ``reconstruction``: see :func:`render_steps`.
     """
     steps = render_steps(model, probe, layout, normals, views, tangents=tangents,
-                         tangent_hint=tangent_hint, tolerance=tolerance, chunk=chunk)
+                         tangent_hint=tangent_hint, tolerance=tolerance, chunk=chunk,
+                         reconstruction=reconstruction)
     while True:
         try:
             fraction, message = next(steps)

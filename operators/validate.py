@@ -213,8 +213,15 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                 self._notes.append(f"{material.name}: the NumPy reference orients the "
                                    f"anisotropic lobe by a fixed hint, not the UV tangent")
             for model, weight in glue.reference_parts(material):
+                factor, why = reference.reconstruction_factor(model, probe.shape, layout,
+                                                              normals, views, tangents=tangents)
+                if factor > 1:
+                    self._notes.append(f"{obj.name}: the NumPy reference ({model.spec}) "
+                                       f"integrates the probe's bilinear reconstruction "
+                                       f"sampled {factor}x finer ({why})")
                 part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
-                    model, probe, layout, normals, views, tangents=tangents))
+                    model, probe, layout, normals, views, tangents=tangents,
+                    reconstruction="bilinear"))
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
                 elif weight == "one_minus_fresnel":
