@@ -6,7 +6,12 @@ For each of Blender's bundled HDRIs and isotropic GGX roughness 0.1, 0.2, 0.3,
 (bake.resolution.choose_probe_face: 200 / 104 / 72 / 48 / 32 px; ``--face
 world``: raised per HDRI for its small lights as the capture's Auto does,
 bake.probe_detail; ``--face N`` for one size for all), a sphere (64^2 pixels) is rendered by the
-brute-force integral (bake.reference, the truth), by the 3D map at Auto size
+brute-force integral (bake.reference, the truth: by default the sum over the
+probe's texel centres, which the committed tables were measured against;
+``--truth bilinear``: the integral over the probe's bilinear reconstruction,
+0.5-8% away from that sum at GGX 0.1; ``--truth world``: the integral over the
+HDRI's own bilinear reconstruction, what Cycles renders, so the probe's loss
+counts as each method's error), by the 3D map at Auto size
 (bake.prefilter) and by regular sampling with 19, 61 and 127 samples as the
 Runtime Sampling nodes compute it (bake.sampling_runtime.shade, their NumPy
 twin, over the level stack glossy.bake_materials makes). Per sample budget
@@ -20,7 +25,7 @@ with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
-        [--brdf ggx|beckmann]
+        [--brdf ggx|beckmann] [--truth texels|bilinear|world]
 
 ``--brdf beckmann`` measures Cycles' Beckmann lobe (sampled through GGX's
 visible normals, bake.sampling_runtime) and writes its own table,
@@ -94,6 +99,10 @@ def runtime_twin(cube, spec, budget, normals, views, lights=()):
 #: The lobe kind measured (``--brdf``): "ggx" (the committed bake/hybrid_errors.json)
 #: or "beckmann" (bake/hybrid_errors_beckmann.json).
 KIND = ["ggx"]
+#: What the truth integrates (``--truth``): the probe's texels, its bilinear
+#: reconstruction (bake.reference.RECONSTRUCTIONS), or the HDRI's (``world``).
+TRUTH = ["texels"]
+TRUTHS = (*reference.RECONSTRUCTIONS, "world")
 
 
 def _spec(roughness):
@@ -144,7 +153,12 @@ def renders(name, directory, size=64, face="auto", with_lights=False):
             world_face(image[..., :3], roughness) if face == "world" else int(face)
         FACES_USED[(name, roughness)] = size_px
         cube = convert(image[..., :3], "latlong", "cube", size_px)
-        truth = reference.render(model, cube, "cube", normals, views) @ LUMINANCE
+        if TRUTH[0] == "world":
+            truth = reference.render(model, image[..., :3], "latlong", normals, views,
+                                     reconstruction="bilinear") @ LUMINANCE
+        else:
+            truth = reference.render(model, cube, "cube", normals, views,
+                                     reconstruction=TRUTH[0]) @ LUMINANCE
         probe, lights, light_term = cube, (), 0.0
         if with_lights:
             probe, lights = probe_lights.extract_for(cube, "cube", roughness ** 2)
@@ -200,7 +214,8 @@ def table_from(results, names, face="auto"):
                               if face == "auto" else
                               {f"{n} {r}": FACES_USED.get((n, r)) for n in names
                                for r in ROUGHNESS} if face == "world" else face,
-                              "brdf": f"{KIND[0]} (isotropic)"}, BUDGETS)
+                              "brdf": f"{KIND[0]} (isotropic)", "truth": TRUTH[0]},
+                             BUDGETS)
 
 
 def relative_rms(estimate, truth):
@@ -220,8 +235,12 @@ def main():
     parser.add_argument("--no-lights", action="store_true",
                         help="the whole probe in both methods (Probe Lights off); the "
                              "default takes the probe's lights out as the bake does")
+    parser.add_argument("--truth", default="texels", choices=TRUTHS,
+                        help="what the brute-force truth integrates: the probe's texels (the "
+                             "committed tables), its bilinear reconstruction, or the HDRI's")
     args = parser.parse_args()
     KIND[0] = args.brdf
+    TRUTH[0] = args.truth
     directory = hdri_directory()
     names = sorted(p.stem for p in directory.glob("*.exr"))
     results = {}
