@@ -28,7 +28,8 @@ from .envmap import get_layout
 from .errors import BakeError
 from .progress import report
 
-__all__ = ["zonal_convolve", "apply_row_kernels", "kernel_integral", "brute_force_convolve"]
+__all__ = ["zonal_convolve", "apply_row_kernels", "row_kernel_spectra", "apply_kernel_spectra",
+           "kernel_integral", "brute_force_convolve"]
 
 #: Output rows processed together (bounds the kernel spectrum's memory).
 _ROW_CHUNK_BYTES = 1 << 27
@@ -106,7 +107,14 @@ class _Table:
         self.support = 2.0 * math.asin(min(last_u / math.sqrt(2.0), 1.0))
 
     def __call__(self, cos_gamma):
-        u = np.sqrt(np.maximum(1.0 - cos_gamma, 0.0)) * self.scale
+        return self.at_versine(np.maximum(1.0 - cos_gamma, 0.0))
+
+    def at_versine(self, versine):
+        """The kernel at 1 - cos(gamma) = ``versine`` (>= 0; any shape): the table's own
+        variable is its square root, so a caller that has the versine in a form
+        accurate near gamma = 0 (float32 1 - cos gamma is not: 6e-8 steps put
+        gamma on steps of 0.02 degrees there) keeps that accuracy."""
+        u = np.sqrt(versine) * np.float32(self.scale)
         index = np.minimum(u.astype(np.int32), self.NODES - 1)
         frac = (u - index).astype(np.float32)
         low = self.values[index]
@@ -148,24 +156,29 @@ class _SubGrid:
     def __init__(self, height, width, s):
         edges = np.pi * np.arange(height + 1) / height
         sub = (np.arange(s) + 0.5) / s
-        theta = edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
-        self.sin, self.cos = np.sin(theta), np.cos(theta)
+        self.theta = edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
+        self.sin = np.sin(self.theta)
         band = edges[:-1, None] + np.arange(s + 1)[None, :] * (np.pi / height / s)
         self.omega = ((np.cos(band[:, :-1]) - np.cos(band[:, 1:]))
                       * (2 * np.pi / width / s)).astype(np.float32)
         half = width // 2 + 1
         dphi = 2.0 * np.pi * (np.arange(half)[:, None] + (sub[None, :] - 0.5)) / width
-        self.cos_dphi = np.cos(dphi)  # (W/2+1, s)
+        self.versine_dphi = (2.0 * np.sin(0.5 * dphi) ** 2).astype(np.float32)  # (W/2+1, s)
         self.s = s
 
-    def weights(self, table, sa, ca, b0, b1, cols):
+    def weights(self, table, ta, sa, b0, b1, cols):
         """Kernel integrated over input texels (rows b0:b1, columns 0:cols) for output
-        rows with sin/cos of latitude sa, ca (A,): (A, b1 - b0, cols) float64."""
-        # cos(gamma) for (a, b, sub_b, m, sub_phi): cos a cos b + sin a sin b cos dphi.
-        cos_gamma = (ca[:, None, None, None, None] * self.cos[None, b0:b1, :, None, None]
-                     + (sa[:, None, None, None, None] * self.sin[None, b0:b1, :, None, None])
-                     * self.cos_dphi[None, None, None, :cols, :]).astype(np.float32)
-        weights = table(cos_gamma) * self.omega[None, b0:b1, :, None, None]
+        rows at polar angles ta with sines sa (A,): (A, b1 - b0, cols) float64."""
+        # 1 - cos(gamma) for (a, b, sub_b, m, sub_phi), in the haversine form
+        # 2 sin^2((a - b) / 2) + sin a sin b 2 sin^2(dphi / 2): a sum of two
+        # non-negative terms, accurate in float32 down to gamma = 0 (1 - (cos a
+        # cos b + sin a sin b cos dphi) is not).
+        along = (2.0 * np.sin(0.5 * (ta[:, None, None] - self.theta[None, b0:b1, :])) ** 2
+                 ).astype(np.float32)[:, :, :, None, None]
+        across = (sa[:, None, None] * self.sin[None, b0:b1, :]).astype(np.float32)
+        versine = along + across[:, :, :, None, None] * self.versine_dphi[None, None, None,
+                                                                          :cols, :]
+        weights = table.at_versine(versine) * self.omega[None, b0:b1, :, None, None]
         if self.s > 1:
             return weights.sum(axis=(2, 4), dtype=np.float64)
         return weights[:, :, 0, :, 0].astype(np.float64)
@@ -204,6 +217,13 @@ def apply_row_kernels(half_weights, band_spectrum, width, target=None):
     batched real BLAS call on the spectrum's real and imaginary parts), then
     the inverse transform.
     """
+    return apply_kernel_spectra(row_kernel_spectra(half_weights, width, target),
+                                band_spectrum, width)
+
+
+def row_kernel_spectra(half_weights, width, target=None):
+    """(F, A, B) float64 real longitude spectra of the per-row kernels of
+    :func:`apply_row_kernels` (same arguments)."""
     rows, band, cols = half_weights.shape
     half = width // 2 + 1
     mult, table = _cosine_table(width)
@@ -220,7 +240,12 @@ def apply_row_kernels(half_weights, band_spectrum, width, target=None):
         mirrored = weights[:, :, 1:min(cols, width - width // 2)]
         full[:, :, width - mirrored.shape[2]:] = mirrored[:, :, ::-1]
         kernel = np.fft.rfft(full, axis=2).real.reshape(rows * band, half)
-    kernel = np.ascontiguousarray(kernel.reshape(rows, band, half).transpose(2, 0, 1))
+    return np.ascontiguousarray(kernel.reshape(rows, band, half).transpose(2, 0, 1))
+
+
+def apply_kernel_spectra(kernel, band_spectrum, width):
+    """(A, W, C) float32 output rows from :func:`row_kernel_spectra`' (F, A, B) kernel
+    and the band's (F, B, C) complex row spectra (:func:`apply_row_kernels`)."""
     spectrum = np.ascontiguousarray(band_spectrum)
     combined = np.matmul(kernel, spectrum.view(np.float64)).view(np.complex128)  # (F, A, C)
     return np.fft.irfft(combined.transpose(1, 0, 2), n=width, axis=1).astype(np.float32)
@@ -301,20 +326,32 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
         reach_phi = _column_reach(ta, theta_in[b0:b1], distance) + np.pi / width
         return int(min(half, math.ceil(reach_phi / (2.0 * np.pi / width)) + 1))
 
-    for start in range(0, out_height, chunk):
-        stop = min(start + chunk, out_height)
+    # The grids are symmetric about the equator: output row a and input row b
+    # see the same kernel weights as rows out_height - 1 - a and height - 1 - b
+    # (cos gamma = cos a cos b + sin a sin b cos dphi is unchanged when both
+    # latitudes are mirrored, and so are the sub-samples and their solid
+    # angles). Each chunk of the northern half computes its kernel spectra
+    # once and applies them to its own band and, reversed, to the mirrored
+    # band for the mirrored rows (with an odd row count the middle row's chunk
+    # and its mirror overlap and write the same values).
+    north = (out_height + 1) // 2
+    for start in range(0, north, chunk):
+        stop = min(start + chunk, north)
         ta = theta_out[start:stop]
         b0, b1 = band_of(ta, reach)
-        sa, ca = np.sin(ta), np.cos(ta)
+        sa = np.sin(ta)
         cols = columns(ta, b0, b1, reach)
-        weights = coarse.weights(table, sa, ca, b0, b1, cols)  # (A, band, cols)
+        weights = coarse.weights(table, ta, sa, b0, b1, cols)  # (A, band, cols)
         if coarse is not fine:
             n0, n1 = band_of(ta, near_reach)
             near_cols = min(cols, columns(ta, n0, n1, near_reach))
-            weights[:, n0 - b0:n1 - b0, :near_cols] = fine.weights(table, sa, ca, n0, n1,
+            weights[:, n0 - b0:n1 - b0, :near_cols] = fine.weights(table, ta, sa, n0, n1,
                                                                    near_cols)
-        out[start:stop] = apply_row_kernels(weights, by_frequency[:, b0:b1], width, target)
-        report(progress, stop / out_height, f"convolving rows {stop}/{out_height}")
+        kernel = row_kernel_spectra(weights, width, target)  # (F, A, band)
+        out[start:stop] = apply_kernel_spectra(kernel, by_frequency[:, b0:b1], width)
+        out[out_height - stop:out_height - start] = apply_kernel_spectra(
+            kernel[:, ::-1, ::-1], by_frequency[:, height - b1:height - b0], width)
+        report(progress, stop / north, f"convolving rows {2 * stop}/{out_height}")
     return out
 
 
