@@ -245,7 +245,8 @@ def table_from(results, names, face="auto"):
                               if face == "auto" else
                               {f"{n} {r}": FACES_USED.get((n, r)) for n in names
                                for r in ROUGHNESS} if face == "world" else face,
-                              "brdf": f"{KIND[0]} (isotropic)", "truth": TRUTH[0]},
+                              "brdf": f"{KIND[0]} (isotropic)", "truth": TRUTH[0],
+                              "supersample": SUPERSAMPLE[0]},
                              BUDGETS)
 
 

@@ -219,3 +219,28 @@ def test_row_kernels_equal_the_direct_circular_sum(width, cols):
     rescaled = apply_row_kernels(half, spectrum, width, target)
     expected = direct * (target / totals)[:, None, None]
     assert np.abs(rescaled - expected).max() < 1e-6 * np.abs(expected).max()
+
+
+@pytest.mark.parametrize("out_rows", [9, 17, 24])
+@pytest.mark.parametrize("width", [0.15, 0.6])
+def test_rows_filtered_as_the_mirror_of_the_north_match_the_direct_sum(out_rows, width):
+    """zonal_convolve computes each chunk's kernel for the northern rows and applies it,
+    reversed, to their mirror about the equator (odd row counts overlap at the
+    middle row). On an image whose two hemispheres differ (a random field times a
+    ramp from pole to pole), point-sampled (one sample per texel), every output
+    row equals the direct sum over the input texels' centres of the same tabulated
+    kernel, to float32 rounding: measured at most 9e-8 of the largest value (6e-7
+    with 1 - cos gamma taken from a float32 cos before the haversine form, at
+    width 0.15); bound 1e-5."""
+    from bake.zonal import _Table
+
+    rng = np.random.default_rng(11)
+    shape = (24, 48)
+    image = (rng.random((*shape, 3)) * np.linspace(0.1, 4.0, shape[0])[:, None, None])
+    table = _Table(lambda c: np.exp((np.asarray(c) - 1.0) / width**2))
+    ours = zonal_convolve(image.astype(np.float32), table, out_rows, normalize=False)
+    targets = LATLONG.texel_directions((out_rows, shape[1]))  # the input's columns
+    direct = brute_force_convolve(LATLONG.texel_directions(shape).reshape(-1, 3),
+                                  image.reshape(-1, 3), LATLONG.solid_angles(shape).reshape(-1),
+                                  table, targets, normalize=False)
+    assert np.abs(ours - direct).max() < 1e-5 * np.abs(direct).max()
