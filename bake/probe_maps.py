@@ -211,10 +211,27 @@ def resample_rows(image, rows: int):
     south = image[-1:].mean(axis=1, keepdims=True).repeat(width, 1)
     padded = np.concatenate([north, image, south])
     r0, r1, tr = _axis_weights(height, rows, periodic=False)
-    by_rows = padded[r0] * (1 - tr)[:, None, None] + padded[r1] * tr[:, None, None]
+    tr = tr.astype(np.float32)[:, None, None]
+    by_rows = padded[r0] * (1 - tr) + padded[r1] * tr
+    factor, remainder = divmod(2 * rows, width)
+    if factor > 1 and remainder == 0:
+        # An integer upsampling in longitude: output column p + factor k lies between
+        # input columns k - 1 and k (p < factor / 2) or k and k + 1, at the same
+        # fraction for every k, so each phase p is a weighted sum of two
+        # shifted slices of the input (wrapped at the seam) rather than gathers.
+        wrapped = np.concatenate([by_rows[:, -1:], by_rows, by_rows[:, :1]], axis=1)
+        out = np.empty((rows, 2 * rows, image.shape[2]), np.float32)
+        for phase in range(factor):
+            x = (phase + 0.5) / factor - 0.5
+            first = math.floor(x)
+            t = np.float32(x - first)
+            start = 1 + first
+            out[:, phase::factor] = (wrapped[:, start:start + width] * (1 - t)
+                                     + wrapped[:, start + 1:start + 1 + width] * t)
+        return out
     c0, c1, tc = _axis_weights(width, 2 * rows, periodic=True)
-    out = by_rows[:, c0] * (1 - tc)[None, :, None] + by_rows[:, c1] * tc[None, :, None]
-    return out.astype(np.float32)
+    tc = tc.astype(np.float32)[None, :, None]
+    return (by_rows[:, c0] * (1 - tc) + by_rows[:, c1] * tc).astype(np.float32)
 
 
 def latlong_detail_rows(shape, layout) -> int:

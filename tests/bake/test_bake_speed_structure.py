@@ -244,3 +244,26 @@ def test_rows_filtered_as_the_mirror_of_the_north_match_the_direct_sum(out_rows,
                                   image.reshape(-1, 3), LATLONG.solid_angles(shape).reshape(-1),
                                   table, targets, normalize=False)
     assert np.abs(ours - direct).max() < 1e-5 * np.abs(direct).max()
+
+
+@pytest.mark.parametrize(("height", "rows"), [(48, 384), (24, 96), (24, 37), (40, 24)])
+def test_resampling_rows_is_bilinear_in_latitude_and_periodic_longitude(height, rows):
+    """probe_maps.resample_rows (integer upsampling in longitude by shifted slices,
+    any other ratio by gathers) against np.interp, column by column in latitude
+    (nodes: the row centres plus each pole holding the mean of its ring) and
+    then row by row in longitude with period 2 pi: equal to float32 rounding."""
+    rng = np.random.default_rng(height + rows)
+    image = rng.random((height, 2 * height, 3)).astype(np.float32)
+    ours = probe_maps.resample_rows(image, rows)
+    assert ours.shape == (rows, 2 * rows, 3) and ours.dtype == np.float32
+    nodes = np.concatenate([[0.0], np.pi * (np.arange(height) + 0.5) / height, [np.pi]])
+    values = np.concatenate([image[:1].mean(axis=1, keepdims=True).repeat(2 * height, 1),
+                             image, image[-1:].mean(axis=1, keepdims=True).repeat(2 * height, 1)])
+    theta = np.pi * (np.arange(rows) + 0.5) / rows
+    by_rows = np.stack([[np.interp(theta, nodes, values[:, j, c]) for c in range(3)]
+                        for j in range(2 * height)], axis=1).transpose(2, 1, 0)  # (rows, W, 3)
+    phi_in = 2 * np.pi * (np.arange(2 * height) + 0.5) / (2 * height)
+    phi_out = 2 * np.pi * (np.arange(2 * rows) + 0.5) / (2 * rows)
+    expected = np.stack([[np.interp(phi_out, phi_in, by_rows[i, :, c], period=2 * np.pi)
+                          for c in range(3)] for i in range(rows)]).transpose(0, 2, 1)
+    np.testing.assert_allclose(ours, expected, atol=1e-6)
