@@ -21,7 +21,11 @@ near 0 from n.v 0 to 0.35: there the coarse probe limited regular sampling;
 at the lobe rule's 200 px w was 0.6-0.9 below n.v 0.7, and at the faces the
 HDRIs' lamps need it is 0.7-1.0):
 each bin's w is the least-squares blend of the two estimates against the
-brute-force integral,
+brute-force integral (the sum over the probe's texels), each pixel the mean
+of 2 x 2 sub-pixels (``--supersample 2``: the footprint EEVEE's and Cycles'
+anti-aliasing integrate; pixel centres alone alias highlights narrower than
+a pixel, which put night.exr at 21% for every method at GGX 0.1 and moved
+GGX 0.1's weights by up to 0.36),
 
     w = sum (m - t)(m - r) / sum (m - r)^2   (clamped to [0, 1]),
 
@@ -39,7 +43,7 @@ bins' centres, roughness on its grid, the budget in log2; clamped outside).
 Cycles' Beckmann lobe, which runtime sampling estimates through GGX's visible
 normals (bake.sampling_runtime), has a table of its own,
 ``hybrid_errors_beckmann.json`` (``benchmarks/hybrid.py --brdf beckmann
---face world --write``, measured the same way): its runtime estimate carries
+--face world --write``, measured the same way, at pixel centres): its runtime estimate carries
 the importance weights' extra spread, so the map keeps more of the blend near
 normal incidence (w = 0 at n.v above 0.5 for roughness 0.1-0.3 at 19
 samples, where GGX's table gives 0.4-0.9). Leave one out it puts the Hybrid

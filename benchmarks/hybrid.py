@@ -25,7 +25,12 @@ with the weights derived *without* that HDRI (leave one out), so no figure
 judges the table on the scene it was measured on.
 
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
-        [--brdf ggx|beckmann] [--truth texels|bilinear|world]
+        [--brdf ggx|beckmann] [--truth texels|bilinear|world] [--supersample 2]
+        [--roughness 0.1,0.2]
+
+The committed GGX table: ``--face world --supersample 2 --write`` (each pixel
+the mean of 2 x 2 sub-pixels, as anti-aliasing filters them; pixel centres
+alias highlights narrower than a pixel, :func:`sphere_pixels`).
 
 ``--brdf beckmann`` measures Cycles' Beckmann lobe (sampled through GGX's
 visible normals, bake.sampling_runtime) and writes its own table,
