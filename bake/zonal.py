@@ -351,7 +351,8 @@ def zonal_convolve(image, kernel, out_height=None, *, supersample: int = 1, norm
         out[start:stop] = apply_kernel_spectra(kernel, by_frequency[:, b0:b1], width)
         out[out_height - stop:out_height - start] = apply_kernel_spectra(
             kernel[:, ::-1, ::-1], by_frequency[:, height - b1:height - b0], width)
-        report(progress, stop / north, f"convolving rows {2 * stop}/{out_height}")
+        report(progress, stop / north,
+               f"convolving rows {min(2 * stop, out_height)}/{out_height}")
     return out
 
 
