@@ -26,7 +26,7 @@ judges the table on the scene it was measured on.
 
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
         [--brdf ggx|beckmann] [--truth texels|bilinear|world] [--supersample 2]
-        [--roughness 0.1,0.2]
+        [--roughness 0.1,0.2] [--hdri night,city]
 
 The committed GGX table: ``--face world --supersample 2 --write`` (each pixel
 the mean of 2 x 2 sub-pixels, as anti-aliasing filters them; pixel centres
@@ -280,6 +280,9 @@ def main():
                         help="comma-separated subset of the roughness values measured "
                              f"(default: all of {', '.join(map(str, ROUGHNESS))}); with "
                              "a subset the table is printed, not written")
+    parser.add_argument("--hdri", default=None,
+                        help="comma-separated subset of the bundled HDRIs (by stem); with a "
+                             "subset the table is printed, not written")
     parser.add_argument("--truth", default="texels", choices=TRUTHS,
                         help="what the brute-force truth integrates: the probe's texels (the "
                              "committed tables), its bilinear reconstruction, or the HDRI's")
@@ -293,6 +296,13 @@ def main():
             parser.error("--write needs every roughness (leave --roughness out)")
     directory = hdri_directory()
     names = sorted(p.stem for p in directory.glob("*.exr"))
+    if args.hdri:
+        unknown = sorted(set(args.hdri.split(",")) - set(names))
+        if unknown:
+            parser.error(f"unknown HDRI(s) {', '.join(unknown)} (bundled: {', '.join(names)})")
+        if args.write:
+            parser.error("--write needs every HDRI (leave --hdri out)")
+        names = sorted(set(args.hdri.split(",")))
     results = {}
     for name in names:
         start = time.perf_counter()

@@ -12,7 +12,7 @@ normalised and scaled by the tabulated albedo. EEVEE compiles a repeat zone as
 a loop: the shader's size and compile time do not grow with the sample count
 (unrolled, 19 samples took 49 s to compile here). The probe lights are a third
 repeat zone, each light's constants read from its atlas texels and shaded by
-one shared group (``Glossy Probe Light v3``). nodes.build_lookup attaches
+one per-material group (``Glossy Probe Light v4``). nodes.build_lookup attaches
 it (methods Runtime Sampling and Hybrid); :func:`hybrid_value` blends it with the 3D map.
 A Cycles Beckmann lobe (the atlas meta's ``kind``) has its own sample and light
 groups (the names end in " beckmann"): the same GGX visible normals, weighed by
@@ -24,6 +24,7 @@ import math
 
 import bpy
 
+from ..bake.sampling_runtime import LIGHT_WIDENING, MIN_COS
 from .nodes import _Builder, _group, _group_node, _io, _tap, atlas_taps_group
 
 GROUP_VERSION = 3
@@ -202,21 +203,26 @@ def sample_group(ax, ay, kind="ggx"):
     return tree
 
 
-LIGHT_GROUP = f"Glossy Probe Light v{GROUP_VERSION}"
+#: The light group's own version (v4: the light's extent widens the highlight across
+#: the plane of incidence by 1 / (wo.h), bake.sampling_runtime.widened_d).
+LIGHT_GROUP_VERSION = 4
+LIGHT_GROUP = f"Glossy Probe Light v{LIGHT_GROUP_VERSION}"
 
 
 def light_group(ax, ay, kind="ggx"):
     """Per-material group: one probe light's radiance before the scale rho / A_ss
     (bake.sampling_runtime.light_radiance): inputs the lobe frame X, Y, N (world),
     Wo and the view's Lambda (from :func:`frame_group`), the light's world
-    Direction and Irradiance (RGB as a vector) and the widened alphas BX, BY;
-    output Radiance = D_B(h) / (4 wo_z (1 + Lambda_o + Lambda(l))) E, zero where
-    the light is below the surface (D_B: the lobe's D at the widened alphas).
+    Direction and Irradiance (RGB as a vector), the widened alphas BX, BY and
+    the light's Spread (RMS radius, rad); output Radiance = D_B(h) / (4 wo_z (1 +
+    Lambda_o + Lambda(l))) E, zero where the light is below the surface (D_B:
+    the lobe's D averaged over the light's extent, bake.sampling_runtime.widened_d).
     ``kind`` "beckmann": Beckmann's D, and its Lambdas (of Wo computed here)."""
     name = f"{LIGHT_GROUP} {ax:.6g} {ay:.6g}{_kind_suffix(kind)}"
     tree = _group(name, [(s, _VECTOR) for s in ("X", "Y", "N", "Wo", "Direction",
                                                   "Irradiance")]
-                  + [(s, _FLOAT) for s in ("Lambda", "BX", "BY")], [("Radiance", _VECTOR)])
+                  + [(s, _FLOAT) for s in ("Lambda", "BX", "BY", "Spread")],
+                  [("Radiance", _VECTOR)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
@@ -230,26 +236,48 @@ def light_group(ax, ay, kind="ggx"):
     valid = b.math("MULTIPLY", b.math("GREATER_THAN", wiz, 0.0),
                    b.math("GREATER_THAN", b.vec("DOT_PRODUCT", wo, h), 0.0))
     hx, hy, hz = b.separate(h)
-    bx2 = b.math("MULTIPLY", i["BX"], i["BX"])
-    by2 = b.math("MULTIPLY", i["BY"], i["BY"])
-    t = b.math("ADD", b.math("ADD", b.math("DIVIDE", b.math("MULTIPLY", hx, hx), bx2),
-                             b.math("DIVIDE", b.math("MULTIPLY", hy, hy), by2)),
+    # The slopes' covariance S = diag(BX^2, BY^2) + e q q^T (widened_d): e =
+    # (LIGHT_WIDENING Spread)^2 (1 / c^2 - 1), c = max(wo.h, MIN_COS), q the unit
+    # tangent-plane part of wi x wo (zero where it has none).
+    cos_d = b.math("MAXIMUM", b.vec("DOT_PRODUCT", wo, h), MIN_COS)
+    spread = b.math("MULTIPLY", i["Spread"], LIGHT_WIDENING)
+    extra = b.math("MULTIPLY", b.math("MULTIPLY", spread, spread), b.math(
+        "SUBTRACT", b.math("DIVIDE", 1.0, b.math("MULTIPLY", cos_d, cos_d)), 1.0))
+    px, py, _ = b.separate(b.vec("CROSS_PRODUCT", wi, wo))
+    length = b.math("SQRT", b.math("ADD", b.math("MULTIPLY", px, px),
+                                    b.math("MULTIPLY", py, py)))
+    length = b.math("MAXIMUM", length, 1e-30)
+    qx, qy = b.math("DIVIDE", px, length), b.math("DIVIDE", py, length)
+    sxx = b.math("ADD", b.math("MULTIPLY", i["BX"], i["BX"]),
+                 b.math("MULTIPLY", extra, b.math("MULTIPLY", qx, qx)))
+    syy = b.math("ADD", b.math("MULTIPLY", i["BY"], i["BY"]),
+                 b.math("MULTIPLY", extra, b.math("MULTIPLY", qy, qy)))
+    sxy = b.math("MULTIPLY", extra, b.math("MULTIPLY", qx, qy))
+    det = b.math("SUBTRACT", b.math("MULTIPLY", sxx, syy), b.math("MULTIPLY", sxy, sxy))
+    form = b.math("SUBTRACT", b.math("ADD", b.math("MULTIPLY", syy, b.math("MULTIPLY", hx, hx)),
+                                     b.math("MULTIPLY", sxx, b.math("MULTIPLY", hy, hy))),
+                  b.math("MULTIPLY", b.math("MULTIPLY", sxy, 2.0), b.math("MULTIPLY", hx, hy)))
+    t = b.math("ADD", b.math("DIVIDE", form, b.math("MAXIMUM", det, 1e-30)),
                b.math("MULTIPLY", hz, hz))
+    root_det = b.math("SQRT", b.math("MAXIMUM", det, 0.0))
     _, _, woz = b.separate(wo)
     if kind == "ggx":
-        # D_B = 1 / (pi bx by t^2); the denominator 4 wo_z (1 + L_o + L_i) pi bx by t^2
-        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
-            "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", t, t)), 4.0 * math.pi),
+        # D_B = 1 / (pi sqrt(det S) t^2); the denominator 4 wo_z (1 + L_o + L_i) pi
+        # sqrt(det S) t^2
+        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", root_det,
+                                                                   b.math("MULTIPLY", t, t)),
+                                                4.0 * math.pi),
             b.math("MULTIPLY", woz, b.math("ADD", b.math("ADD", i["Lambda"], 1.0),
                                            _lambda(b, wi, ax, ay))))
         value = b.math("DIVIDE", valid, b.math("MAXIMUM", denominator, 1e-30))
     else:
-        # D_B = exp(1 - t / hz^2) / (pi bx by hz^4) (t / hz^2 = 1 + tau), over
+        # D_B = exp(1 - t / hz^2) / (pi sqrt(det S) hz^4) (t / hz^2 = 1 + tau), over
         # 4 wo_z (1 + L_o + L_i) with Beckmann's Lambdas
         hz2 = b.math("MAXIMUM", b.math("MULTIPLY", hz, hz), 1e-12)
         numerator = b.math("EXPONENT", b.math("SUBTRACT", 1.0, b.math("DIVIDE", t, hz2)))
-        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", b.math(
-            "MULTIPLY", i["BX"], i["BY"]), b.math("MULTIPLY", hz2, hz2)), 4.0 * math.pi),
+        denominator = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", root_det,
+                                                                   b.math("MULTIPLY", hz2, hz2)),
+                                                4.0 * math.pi),
             b.math("MULTIPLY", woz, b.math("ADD", b.math(
                 "ADD", _lambda_beckmann(b, wo, ax, ay), 1.0), _lambda_beckmann(b, wi, ax, ay))))
         value = b.math("DIVIDE", b.math("MULTIPLY", valid, numerator),
@@ -261,7 +289,7 @@ def light_group(ax, ay, kind="ggx"):
 def _lights_value(b, image, meta, frame):
     """The probe lights' radiance (colour socket), or None without lights: a repeat
     zone over the lights, each read from its three atlas texels (direction,
-    irradiance, widened alphas; bake.sampling_runtime.light_texels) and shaded by
+    irradiance, widened alphas and spread; bake.sampling_runtime.light_texels) and shaded by
     :func:`light_group`, then scaled by rho / A_ss."""
     lights = meta.get("lights") or []
     if not lights:
@@ -273,11 +301,11 @@ def _lights_value(b, image, meta, frame):
     direction, irradiance, alphas = (
         _texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
         for c in range(3))
-    bx, by, _ = b.separate(alphas)
+    bx, by, spread = b.separate(alphas)
     node = _group_node(b, group, {
         "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
         "Lambda": frame["Lambda"], "Direction": direction, "Irradiance": irradiance,
-        "BX": bx, "BY": by})
+        "BX": bx, "BY": by, "Spread": spread})
     b.link(b.vec("ADD", state["Sum"], node["Radiance"]), result["Sum"])
     return b.vec("MULTIPLY", after["Sum"], _albedo(b, image, meta, frame["Wo"], table=1))
 

@@ -147,6 +147,67 @@ def test_the_light_term_is_the_brdf_times_the_irradiance(spec, tint):
     np.testing.assert_allclose(np.median(scale, axis=0), tint, rtol=0.02)
 
 
+def _cap_average(model, centre, radius, views, count=96):
+    """(V,) mean of f(l, v) cos(theta_l) (green) over a uniform cap of angular
+    ``radius`` about ``centre`` (lobe frame = BRDF frame, z the normal): the light
+    term of an extended light of unit irradiance, by a count^2 product rule
+    (uniform in cos and in azimuth: equal solid angles)."""
+    u = (np.arange(count) + 0.5) / count
+    cos_r, phi = np.meshgrid(1.0 - u * (1.0 - np.cos(radius)), 2 * np.pi * u, indexing="ij")
+    sin_r = np.sqrt(1.0 - cos_r ** 2)
+    local = np.stack([sin_r * np.cos(phi), sin_r * np.sin(phi), cos_r], -1).reshape(-1, 3)
+    x = _unit(np.cross((0.0, 1.0, 0.0), centre))
+    directions = local @ np.stack([x, np.cross(centre, x), centre])
+    return np.array([np.mean(model.f(directions, np.broadcast_to(v, directions.shape))[:, 1]
+                             * np.clip(directions[:, 2], 0.0, None)) for v in views])
+
+
+@pytest.mark.parametrize("spec", ["ggx:roughness=0.2", "ggx:roughness=0.3",
+                                  "beckmann:roughness=0.2"])
+def test_a_lights_extent_spreads_its_highlight_across_the_plane_of_incidence(spec, monkeypatch):
+    """A light of RMS radius 1 degree (a uniform cap of radius sqrt(2) degrees)
+    seen in its mirror direction and turned up to 20 degrees across the plane of
+    incidence: bake.sampling_runtime.light_radiance against the mean of f cos
+    over the cap. Its directions move the half vector by 1 / (2 wo.h) of their
+    angle across the plane, which at grazing views is far more than the half
+    that an isotropic widening of the alphas gives. Measured relative RMS (view-
+    dependent / isotropic widening) at n.v 0.05, 0.1, 0.2, 0.9: GGX 0.2 0.44 / 5.3,
+    0.38 / 2.2, 0.27 / 0.83, 0.037 / 0.042; GGX 0.3 0.35 / 1.9, 0.22 / 0.70, 0.094
+    / 0.21, 0.0074 / 0.0083; Beckmann 0.2 0.25 / 4.5, 0.18 / 1.8, 0.064 / 0.54,
+    0.0004 / 0.005. What remains is the Gaussian sum of widths, which the shape
+    of a GGX lobe and the curvature of the mapping at grazing views leave
+    approximate. Asserted: at least 2x closer at n.v up to 0.2 (the least
+    measured gain is 2.2x), and no worse and under 5% near normal incidence,
+    where 1 / (wo.h) is near 1."""
+    model = brdf.parse(spec)
+    spread = np.radians(1.0)
+    across = np.radians(np.linspace(0.0, 20.0, 9))
+    for mu in (0.05, 0.1, 0.2, 0.9):
+        theta = np.arccos(mu)
+        light = probe_lights.Light(np.array([-np.sin(theta), 0.0, mu]), np.ones(3), 0.0,
+                                   spread)
+        views = np.stack([np.sin(theta) * np.cos(across), np.sin(theta) * np.sin(across),
+                          np.full_like(across, mu)], -1)
+        truth = _cap_average(model, light.direction, np.sqrt(2.0) * spread, views)
+        atlas, meta = sampling_runtime.pack(_sky(16), spec, lights=[light])
+        frames = np.repeat(np.eye(3)[None], len(views), axis=0)
+        term = sampling_runtime.light_radiance(atlas, meta, frames, views)[:, 1]
+        with monkeypatch.context() as patch:  # the isotropic widening: no term across
+            widened = sampling_runtime.widened_d
+            patch.setattr(sampling_runtime, "widened_d",
+                          lambda kind, h, wi, wo, bx, by, spread: widened(kind, h, wi, wo, bx,
+                                                                          by, 0.0))
+            isotropic = sampling_runtime.light_radiance(atlas, meta, frames, views)[:, 1]
+
+        def error(estimate):
+            return np.sqrt(np.mean((estimate - truth) ** 2) / np.mean(truth ** 2))
+
+        if mu <= 0.2:
+            assert error(term) < error(isotropic) / 2
+        else:
+            assert error(term) <= error(isotropic) * 1.001 and error(term) < 0.05
+
+
 def test_taking_the_sun_out_makes_runtime_sampling_closer_to_the_integral():
     """A sky with a small sun (1e4 times the sky, 1.2 texels across): 19 regular
     samples of pre-blurred levels spread the sun over whole levels, and the
