@@ -21,7 +21,11 @@ near 0 from n.v 0 to 0.35: there the coarse probe limited regular sampling;
 at the lobe rule's 200 px w was 0.6-0.9 below n.v 0.7, and at the faces the
 HDRIs' lamps need it is 0.7-1.0):
 each bin's w is the least-squares blend of the two estimates against the
-brute-force integral (the sum over the probe's texels), each pixel the mean
+brute-force integral (the sum over the probe's texels), both taken without
+the probe lights' exact term, which the nodes add outside the blend (its own
+error, against the sum over the lights' texels, is the same for every w, and
+at grazing views under night.exr's lamps it was large enough to decide the
+fit by chance), each pixel the mean
 of 2 x 2 sub-pixels (``--supersample 2``: the footprint EEVEE's and Cycles'
 anti-aliasing integrate; pixel centres alone alias highlights narrower than
 a pixel, which put night.exr at 21% for every method at GGX 0.1 and moved

@@ -95,7 +95,7 @@ render_regular besides the texture's lat-long levels and the tabulated albedo.
 
 import numpy as np
 
-from . import brdf
+from . import brdf, probe_lights
 from .atlas import _lookup, _pad
 from .brdf.microfacet import (
     beckmann_lambda_cycles,
@@ -394,11 +394,12 @@ def _albedo(atlas, meta, wo, table=0):
 def light_texels(lights, ax, ay):
     """Per light its LIGHT_TEXELS texels (RGB each) as the atlas holds them: the
     world direction, the irradiance, and (bx, by, spread) with the alphas widened
-    by the light's extent (light_radiance)."""
+    by the light's extent (light_radiance; bake.probe_lights.Light.extent: its
+    spread without its texels' own extent, which the spread here is)."""
     rows = []
     for light in lights:
         data = light.to_json() if hasattr(light, "to_json") else light
-        spread = float(data.get("spread", 0.0))
+        spread = probe_lights.Light.from_json(data).extent
         widen = (LIGHT_WIDENING * spread) ** 2
         rows.append((tuple(data["direction"]), tuple(data["irradiance"]),
                      (float(np.sqrt(ax * ax + widen)), float(np.sqrt(ay * ay + widen)), spread)))

@@ -65,7 +65,7 @@ from bake import (  # noqa: E402
     resolution,
     sampling_runtime,
 )
-from bake.envmap import convert  # noqa: E402
+from bake.envmap import convert, get_layout  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 ROUGHNESS = (0.1, 0.2, 0.3, 0.45, 0.6)
@@ -170,13 +170,38 @@ def sphere_pixels(size, supersample=1):
     return normals[mask], views[mask], average
 
 
+def lights_texel_sum(model, delta, normals, views, chunk=2048):
+    """(P, 3) the texel sum (bake.reference.reflected_radiance) over the texels a probe
+    lost to its lights: ``delta`` (cube strip) = probe - residual, zero elsewhere; the
+    truth of the lights' share, which their exact term approximates."""
+    layout = get_layout("cube")
+    shape = delta.shape[:2]
+    flat = np.asarray(delta, dtype=np.float64).reshape(-1, 3)
+    keep = np.any(flat != 0.0, axis=1)
+    directions = layout.texel_directions(shape).reshape(-1, 3)[keep]
+    flux = flat[keep] * layout.solid_angles(shape).reshape(-1)[keep, None]
+    frames = reference._frames(normals, None, (0.3, 0.5, 0.8))
+    out = np.zeros((len(normals), 3))
+    for start in range(0, len(normals), chunk):
+        frame = frames[start:start + chunk]
+        wi = np.einsum("pij,tj->pti", frame, directions)
+        wo = np.broadcast_to(np.einsum("pij,pj->pi", frame, views[start:start + chunk])
+                             [:, None, :], wi.shape)
+        values = model.f(wi, wo) * np.clip(wi[..., 2:3], 0.0, None)
+        out[start:start + chunk] = np.einsum("ptc,tc->pc", values, flux)
+    return out
+
+
 def renders(name, directory, size=64, face="auto", with_lights=False):
-    """{roughness: (mu, truth, map, {budget: regular})} luminance per sphere pixel,
-    each roughness from a probe of ``face`` px (or its :func:`auto_face`).
-    ``with_lights``: as the bake does with Probe Lights on (bake.probe_lights): both
-    methods see the residual probe and each estimate includes the lights' exact
-    term (added outside the blend, as the nodes add it); the truth is the whole
-    probe's."""
+    """{roughness: (mu, truth, map, {budget: regular}, lights)} luminance per
+    sphere pixel, each roughness from a probe of ``face`` px (or its
+    :func:`auto_face`). ``with_lights``: as the bake does with Probe Lights on
+    (bake.probe_lights): both methods see the residual probe and each estimate
+    includes the lights' exact term (added outside the blend, as the nodes add
+    it); the truth is the whole probe's, and ``lights`` is (the exact term, the
+    texel sum over the lights' texels: :func:`lights_texel_sum`), both zero without
+    lights or with a truth other than the texel sum: the exact term's error is
+    the part of each estimate's error that no blend weight changes."""
     image, _ = exr.read(directory / f"{name}.exr")
     normals, views, average = sphere_pixels(size, SUPERSAMPLE[0])
     mu = average(np.clip(np.sum(normals * views, axis=-1), 0.0, 1.0))
@@ -195,16 +220,20 @@ def renders(name, directory, size=64, face="auto", with_lights=False):
             truth = reference.render(model, cube, "cube", normals, views,
                                      reconstruction=TRUTH[0]) @ LUMINANCE
         truth = average(truth)
-        probe, lights, light_term = cube, (), 0.0
+        probe, taken, light_term = cube, (), 0.0
+        lights = (np.zeros_like(truth), np.zeros_like(truth))
         if with_lights:
-            probe, lights = probe_lights.extract_for(cube, "cube", roughness ** 2)
-            light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, lights) \
+            probe, taken = probe_lights.extract_for(cube, "cube", roughness ** 2)
+            light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, taken) \
                 - runtime_twin(probe, spec, BUDGETS[0], normals, views)
+            if TRUTH[0] == "texels" and taken:
+                lights = (average(light_term @ LUMINANCE), average(lights_texel_sum(
+                    model, cube - probe, normals, views) @ LUMINANCE))
         baked = average((prefilter.prefilter(probe, spec, "3d", "auto").shade(normals, views)
                          + light_term) @ LUMINANCE)
-        regular = {budget: average(runtime_twin(probe, spec, budget, normals, views, lights)
+        regular = {budget: average(runtime_twin(probe, spec, budget, normals, views, taken)
                                    @ LUMINANCE) for budget in BUDGETS}
-        out[roughness] = (mu, truth, baked, regular)
+        out[roughness] = (mu, truth, baked, regular, lights)
     return out
 
 
@@ -225,7 +254,7 @@ def table_from(results, names, face="auto"):
     for i, roughness in enumerate(ROUGHNESS):
         relative = []
         for name in names:
-            mu, truth, baked, _ = results[name][roughness]
+            mu, truth, baked, _, _ = results[name][roughness]
             errors, truth_squares = binned_squares(mu, truth, baked)
             relative.append(errors / np.maximum(truth_squares, 1e-300))
         map_error[i] = np.sqrt(np.mean(relative, axis=0))
@@ -233,13 +262,17 @@ def table_from(results, names, face="auto"):
             relative = []
             numerator, denominator = np.zeros(bins), np.zeros(bins)
             for name in names:
-                mu, truth, baked, regular = results[name][roughness]
+                mu, truth, baked, regular, (term, share) = results[name][roughness]
                 regular = regular[budget]
+                errors, truth_squares = binned_squares(mu, truth, regular)
+                relative.append(errors / np.maximum(truth_squares, 1e-300))
+                # The blend weighs what it changes: the residual probe's estimates
+                # against the residual's truth (the lights' exact term and its error
+                # are the same whatever w is; :func:`renders`).
+                truth, baked, regular = truth - share, baked - term, regular - term
                 index = np.clip(np.searchsorted(EDGES, mu, side="right") - 1, 0, bins - 1)
                 scale = np.maximum(np.bincount(index, truth ** 2, bins) /
                                    np.maximum(np.bincount(index, None, bins), 1), 1e-300)
-                errors, truth_squares = binned_squares(mu, truth, regular)
-                relative.append(errors / np.maximum(truth_squares, 1e-300))
                 numerator += np.bincount(index, (baked - truth) * (baked - regular), bins) / scale
                 denominator += np.bincount(index, (baked - regular) ** 2, bins) / scale
             regular_error[s, i] = np.sqrt(np.mean(relative, axis=0))
@@ -334,7 +367,7 @@ def main():
         for name in names:
             others = table_from(results, [n for n in names if n != name])
             for roughness in ROUGHNESS:
-                mu, truth, baked, regular = results[name][roughness]
+                mu, truth, baked, regular, _ = results[name][roughness]
                 regular = regular[budget]
                 blends = []
                 for samples in (budget, BUDGETS[0]):

@@ -147,6 +147,33 @@ def test_the_light_term_is_the_brdf_times_the_irradiance(spec, tint):
     np.testing.assert_allclose(np.median(scale, axis=0), tint, rtol=0.02)
 
 
+def test_a_lights_extent_leaves_out_its_texels_own_extent():
+    """A lamp of one texel has a spread of that texel's own extent (sqrt(omega / 6))
+    and an extent of 0: the probe cannot say how much smaller than the texel it
+    is, so it is shaded as a point. A planted disc of radius 1.4 texels keeps its
+    extent within 10% of the continuous disc's RMS radius (radius / sqrt 2; its
+    texel centres under-count the edge by up to half a texel) and within 10% of
+    its spread. Both survive the JSON round trip the atlas meta takes."""
+    probe = _sky()
+    directions, omega = _geometry()
+    texel = np.unravel_index(np.argmin(np.abs(directions @ _unit((0.2, 0.1, 0.97)) - 1.0)),
+                             omega.shape)
+    probe[texel] = 1e5
+    _, lights = probe_lights.extract(probe)
+    assert len(lights) == 1
+    light = probe_lights.Light.from_json(lights[0].to_json())
+    np.testing.assert_allclose(light.spread, np.sqrt(omega[texel] / 6.0), rtol=1e-6)
+    assert light.extent == 0.0
+    probe = _sky()
+    radius = 1.4 * _texel_angle()  # one cluster: 2.8 texels across, within RADIUS_TEXELS
+    _plant(probe, (0.1, -0.05, 0.99), radius, (900.0, 800.0, 700.0))
+    _, lights = probe_lights.extract(probe)
+    assert len(lights) == 1
+    light = probe_lights.Light.from_json(lights[0].to_json())
+    assert abs(light.extent / (radius / np.sqrt(2.0)) - 1.0) < 0.1
+    assert light.extent > 0.9 * light.spread  # measured 0.93
+
+
 def _cap_average(model, centre, radius, views, count=96):
     """(V,) mean of f(l, v) cos(theta_l) (green) over a uniform cap of angular
     ``radius`` about ``centre`` (lobe frame = BRDF frame, z the normal): the light
