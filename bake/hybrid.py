@@ -47,7 +47,9 @@ bins' centres, roughness on its grid, the budget in log2; clamped outside).
 Cycles' Beckmann lobe, which runtime sampling estimates through GGX's visible
 normals (bake.sampling_runtime), has a table of its own,
 ``hybrid_errors_beckmann.json`` (``benchmarks/hybrid.py --brdf beckmann
---face world --write``, measured the same way, at pixel centres): its runtime estimate carries
+--face world --write``, measured before stop 43: at pixel centres, the
+weights fitted on the whole estimates, with the light term of that time,
+which widened a light isotropically): its runtime estimate carries
 the importance weights' extra spread, so the map keeps more of the blend near
 normal incidence (w = 0 at n.v above 0.5 for roughness 0.1-0.3 at 19
 samples, where GGX's table gives 0.4-0.9). Leave one out it puts the Hybrid

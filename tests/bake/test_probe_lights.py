@@ -2,6 +2,8 @@
 energy, against the lights planted in synthetic probes, and (with
 bake.sampling_runtime's exact light term) against the brute-force integral."""
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -189,6 +191,15 @@ def _cap_average(model, centre, radius, views, count=96):
                              * np.clip(directions[:, 2], 0.0, None)) for v in views])
 
 
+def _without_extent(widened_d, kind, h, wi, wo, bx, by, spread):
+    """bake.sampling_runtime.widened_d with no widening across the plane of incidence."""
+    return widened_d(kind, h, wi, wo, bx, by, 0.0)
+
+
+def _relative_rms(estimate, truth):
+    return np.sqrt(np.mean((estimate - truth) ** 2) / np.mean(truth ** 2))
+
+
 @pytest.mark.parametrize("spec", ["ggx:roughness=0.2", "ggx:roughness=0.3",
                                   "beckmann:roughness=0.2"])
 def test_a_lights_extent_spreads_its_highlight_across_the_plane_of_incidence(spec, monkeypatch):
@@ -220,15 +231,10 @@ def test_a_lights_extent_spreads_its_highlight_across_the_plane_of_incidence(spe
         frames = np.repeat(np.eye(3)[None], len(views), axis=0)
         term = sampling_runtime.light_radiance(atlas, meta, frames, views)[:, 1]
         with monkeypatch.context() as patch:  # the isotropic widening: no term across
-            widened = sampling_runtime.widened_d
             patch.setattr(sampling_runtime, "widened_d",
-                          lambda kind, h, wi, wo, bx, by, spread: widened(kind, h, wi, wo, bx,
-                                                                          by, 0.0))
+                          functools.partial(_without_extent, sampling_runtime.widened_d))
             isotropic = sampling_runtime.light_radiance(atlas, meta, frames, views)[:, 1]
-
-        def error(estimate):
-            return np.sqrt(np.mean((estimate - truth) ** 2) / np.mean(truth ** 2))
-
+        error = functools.partial(_relative_rms, truth=truth)
         if mu <= 0.2:
             assert error(term) < error(isotropic) / 2
         else:
