@@ -47,13 +47,14 @@ bins' centres, roughness on its grid, the budget in log2; clamped outside).
 Cycles' Beckmann lobe, which runtime sampling estimates through GGX's visible
 normals (bake.sampling_runtime), has a table of its own,
 ``hybrid_errors_beckmann.json`` (``benchmarks/hybrid.py --brdf beckmann
---face world --write``, measured before stop 43: at pixel centres, the
-weights fitted on the whole estimates, with the light term of that time,
-which widened a light isotropically): its runtime estimate carries
-the importance weights' extra spread, so the map keeps more of the blend near
-normal incidence (w = 0 at n.v above 0.5 for roughness 0.1-0.3 at 19
-samples, where GGX's table gives 0.4-0.9). Leave one out it puts the Hybrid
-below both methods in 35 of 40 cases at 19 samples, above both in none.
+--face world --supersample 2 --write``, measured as GGX's since stop 44: 2 x 2
+sub-pixels, the weights fitted on the residual probe, the lights' term of
+stop 43): its runtime estimate carries the importance weights' extra
+spread, so the map keeps the blend near normal incidence (w = 0 above n.v
+0.7 at every roughness with 19 samples, 0-0.26 at n.v 0.5-0.7 for roughness
+0.1-0.45, where GGX's table gives 0.42-0.84). Leave one out it puts the Hybrid
+below both methods in 37 / 38 / 23 of 40 cases at 19 / 61 / 127 samples
+(the table before: 35 of 40 at 19), above both in none.
 """
 
 import json
