@@ -27,6 +27,12 @@ judges the table on the scene it was measured on.
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
         [--brdf ggx|beckmann] [--truth texels|bilinear|world] [--supersample 2]
         [--roughness 0.1,0.2] [--hdri night,city] [--save out/m.pkl | --load out/m.pkl]
+        [--lights cube|world|auto]
+
+``--lights world`` (with ``--truth world``) measures the probe's lights on the
+world's own texels (bake.world_lights) instead of the cube's; ``auto`` only
+where the lobe's tiles are at least the world's texel (GGX 0.2 and rougher on
+the bundled 1024 x 512 HDRIs).
 
 ``--save`` keeps the per-pixel measurements (a pickle; put it under out/), and
 ``--load`` reads them back instead of measuring (same --brdf, --face, --truth
@@ -70,6 +76,7 @@ from bake import (  # noqa: E402
     reference,
     resolution,
     sampling_runtime,
+    world_lights,
 )
 from bake.envmap import convert, get_layout  # noqa: E402
 
@@ -144,6 +151,12 @@ def world_face(image, roughness):
     cap = max(lobe_face, resolution.world_detail_face(image.shape[0]))
     return probe_detail.choose_world_face(image, min(widths), lobe_face, cap)[0]
 
+
+#: Where the probe's lights are measured (``--lights``): on the cube (the bake's
+#: today), on the world's own texels (bake.world_lights), or on the world's where the
+#: lobe resolves them (world_lights.resolves).
+LIGHTS = ["cube"]
+LIGHT_SOURCES = ("cube", "world", "auto")
 
 #: Sub-pixels per pixel side (``--supersample``): 1 shades pixel centres (the committed
 #: tables); S averages S x S sub-pixels, the footprint EEVEE's and Cycles' anti-aliasing
@@ -230,6 +243,10 @@ def renders(name, directory, size=64, face="auto", with_lights=False):
         lights = (np.zeros_like(truth), np.zeros_like(truth))
         if with_lights:
             probe, taken = probe_lights.extract_for(cube, "cube", roughness ** 2)
+            if LIGHTS[0] == "world" or (LIGHTS[0] == "auto" and world_lights.resolves(
+                    image.shape, roughness ** 2)):
+                world_residual, taken = world_lights.from_world(taken, image[..., :3], size_px)
+                probe = convert(world_residual, "latlong", "cube", size_px)
             light_term = runtime_twin(probe, spec, BUDGETS[0], normals, views, taken) \
                 - runtime_twin(probe, spec, BUDGETS[0], normals, views)
             if TRUTH[0] == "texels" and taken:
@@ -325,6 +342,10 @@ def main():
     parser.add_argument("--truth", default="texels", choices=TRUTHS,
                         help="what the brute-force truth integrates: the probe's texels (the "
                              "committed tables), its bilinear reconstruction, or the HDRI's")
+    parser.add_argument("--lights", default="cube", choices=LIGHT_SOURCES,
+                        help="measure the probe's lights on the cube (the bake's), on the "
+                             "world's own texels (bake.world_lights; needs --truth world), or "
+                             "on the world's where the lobe resolves them")
     parser.add_argument("--save", default=None,
                         help="also store the per-pixel measurements (a pickle, e.g. under "
                              "out/) for --load")
@@ -333,6 +354,11 @@ def main():
                              "measuring (same --brdf, --face, --truth, --supersample)")
     args = parser.parse_args()
     KIND[0] = args.brdf
+    LIGHTS[0] = args.lights
+    if args.lights != "cube" and args.truth != "world":
+        parser.error("--lights world|auto needs --truth world (the texel sum is the cube's)")
+    if args.lights != "cube" and args.write:
+        parser.error("--write stores the bake's table: its lights are the cube's")
     TRUTH[0] = args.truth
     SUPERSAMPLE[0] = args.supersample
     if args.roughness:
