@@ -35,21 +35,28 @@ world direction to the direction the Environment Texture looks up (a
 rotation-only Mapping node: bake.world_mapping), identity by default.
 """
 
+import hashlib
 import math
 
 import numpy as np
 
 from . import probe_lights
-from .envmap import get_layout
+from .envmap import convert, get_layout
 from .errors import BakeError
 
-__all__ = ["from_world", "resolves", "REACH_SPREADS", "REACH_TEXELS"]
+__all__ = ["from_world", "resolves", "rotation_of", "split_for", "digest", "REACH_SPREADS",
+           "REACH_TEXELS"]
 
 #: A world texel belongs to a light within this many of the light's spreads ...
 REACH_SPREADS = 2.0
 #: ... plus this many of the cube's largest texel's angle.
 REACH_TEXELS = 1.5
 LUMINANCE = probe_lights.LUMINANCE
+#: A light's extent (probe_lights.Light.extent: what widens its highlight) is the
+#: RMS angle of its texel centres plus this many of its texels' own omega / 6:
+#: 0 shades a one-texel lamp as a point, 2 as the tent Cycles' bilinear
+#: lookup makes of a texel (second moment 2 omega / 6 about its centre).
+TENT_MOMENTS = 2.0
 
 
 def resolves(world_shape, alpha) -> bool:
@@ -114,8 +121,86 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
         direction /= np.linalg.norm(direction)
         centre = np.arccos(np.clip(directions[texels] @ direction, -1.0, 1.0))
         own = float(np.sum(weights * omega[texels] / 6.0) / np.sum(weights))
-        spread = float(np.sqrt(np.sum(weights * centre ** 2) / np.sum(weights) + own))
+        extent = np.sum(weights * centre ** 2) / np.sum(weights) + TENT_MOMENTS * own
+        spread = float(np.sqrt(extent + own))
         out.append(probe_lights.Light(direction, excess.sum(axis=0), float(omega[texels].sum()),
                                       spread, light.tile, light.threshold, math.sqrt(own)))
         flat[texels] = (radiance[texels] * scale[:, None]).astype(np.float32)
     return residual, out
+
+
+def digest(world) -> str:
+    """A hex digest of a world image's texels (float32) and shape: a World Only
+    probe records it at capture, and the bake measures lights on the world's
+    texels only when the scene's world still holds that image."""
+    image = np.ascontiguousarray(world, dtype=np.float32)
+    return hashlib.blake2b(repr(image.shape).encode() + image.tobytes(),
+                           digest_size=16).hexdigest()
+
+
+def rotation_of(mapping):
+    """(3, 3) R with texture direction = R @ world direction when ``mapping``
+    (bake.world_mapping.WorldMapping, or None: the identity) only turns
+    directions (a rotation, a uniform positive scale, no location that moves
+    points), else None: a Mapping that shears, flips or shifts the lookup moves
+    texels' solid angles, which :func:`from_world` does not follow."""
+    if mapping is None or not mapping.moves_directions:
+        return np.eye(3)
+    basis = mapping.texture_directions(np.eye(3))  # row j: the texture direction of e_j
+    rotation = basis.T
+    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-9) or \
+            np.linalg.det(rotation) < 0:
+        return None
+    probe = np.random.default_rng(0).normal(size=(16, 3))
+    probe /= np.linalg.norm(probe, axis=1, keepdims=True)
+    if not np.allclose(mapping.texture_directions(probe), probe @ rotation.T, atol=1e-9):
+        return None
+    return rotation
+
+
+def split_for(probe, layout, ax, ay=None, world=None, mapping=None):
+    """(residual probe, lights, why) of a probe for a lobe of alphas ``ax``, ``ay``:
+    bake.probe_lights.extract_kept's split of the probe, and, for a World Only
+    cube probe whose ``world`` (H, 2H, 3) image and ``mapping``
+    (bake.world_mapping.WorldMapping: its rotation and Strength) are given,
+    the same lights re-measured on the world's texels (:func:`from_world`),
+    with the world's residual resampled to the probe's cube as the capture
+    resampled the world. Only where the lobe's tiles are at least the world's
+    texel (:func:`resolves`) and the Mapping only turns directions
+    (:func:`rotation_of`); otherwise the cube's split. ``why``: one line that
+    says which was used and, when the cube's, why (None without a world).
+    Kept per probe, world and lobe (bake.probe_maps): the materials of one
+    bake share it; do not modify the residual."""
+    residual, lights = probe_lights.extract_kept(probe, layout, ax, ay)
+    if world is None or not lights:
+        return residual, lights, None
+    mean_alpha = math.sqrt(ax * (ax if ay is None else ay))  # the tiles' (probe_lights)
+    if layout != "cube":
+        return residual, lights, "lights measured on the probe (it is not a cube)"
+    if not resolves(np.shape(world), mean_alpha):
+        return residual, lights, (f"lights measured on the probe: the lobe's tiles "
+                                  f"({probe_lights.TILE_FRACTION * mean_alpha:.2g} rad) are "
+                                  f"finer than the world's texels")
+    rotation = rotation_of(mapping)
+    if rotation is None:
+        return residual, lights, ("lights measured on the probe: the world's Mapping does "
+                                  "more than turn it")
+    from .probe_maps import probe_maps
+
+    world = np.ascontiguousarray(world, dtype=np.float32)
+    strength = 1.0 if mapping is None else float(mapping.strength)
+    key = ("world lights", digest(world), tuple(np.round(rotation, 12).ravel()), strength,
+           REACH_SPREADS, REACH_TEXELS, round(float(ax), 9),
+           round(float(ax if ay is None else ay), 9))
+
+    def compute():
+        face = int(np.shape(probe)[0])
+        world_residual, measured = from_world(lights, world, face, rotation, strength)
+        transform = mapping.texture_directions \
+            if mapping is not None and mapping.moves_directions else None
+        cube = convert(world_residual, "latlong", "cube", face, transform=transform)
+        return cube, measured
+
+    cube, measured = probe_maps(probe, layout).kept(key, compute)
+    return cube, measured, (f"{len(measured)} of the probe's {len(lights)} lights "
+                            f"re-measured on the world's {np.shape(world)[0]}-row image")

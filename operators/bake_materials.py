@@ -16,6 +16,7 @@ from ..bake import (
     probe_lights,
     sampling_runtime,
     separable,
+    world_lights,
 )
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled, scaled_steps
@@ -42,6 +43,7 @@ from ..glossy_addon.spatial import (
     map_variants,
     split_plan,
 )
+from ..glossy_addon.world import WorldNotReadable, image_pixels, world_environment
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -150,12 +152,36 @@ def runtime_height(settings, probe, layout) -> tuple:
     return rows, why
 
 
-def _light_steps(probe, layout, ax, ay):
-    """bake.probe_lights.extract_kept as steps (no bpy: runs on a worker thread, so
+def _light_steps(probe, layout, ax, ay, world=None):
+    """bake.world_lights.split_for as steps (no bpy: runs on a worker thread, so
     the UI stays responsive: a probe of 1024 px faces takes about 5 s here): one
-    message, then (residual probe, lights)."""
+    message, then (residual probe, lights, why). ``world``: (image, Mapping) of
+    a World Only probe's world (:func:`world_of`), or None."""
     yield 0.0, "taking the probe's small bright lights out (Probe Lights)"
-    return probe_lights.extract_kept(probe, layout, ax, ay)
+    image, mapping = world if world is not None else (None, None)
+    return world_lights.split_for(probe, layout, ax, ay, image, mapping)
+
+
+def world_of(scene, meta):
+    """(pixels (H, 2H, 3) float32, bake.world_mapping.WorldMapping) of the scene's
+    world when ``meta`` is a World Only probe's that was resampled from that very
+    image through that Mapping and Strength (its recorded world_digest and
+    world_mapping), so the bake may measure the probe's lights on the world's
+    texels (bake.world_lights); else (None, why not)."""
+    if meta.get("source") != "WORLD":
+        return None, None
+    if "world_digest" not in meta:
+        return None, "the probe predates world lights: capture it again to measure its " \
+                     "lights on the world's texels"
+    try:
+        image, mapping = world_environment(scene.world)
+        pixels = image_pixels(image)
+    except (WorldNotReadable, ValueError) as error:
+        return None, f"the world can no longer be read ({error})"
+    if mapping.to_meta() != meta.get("world_mapping") or \
+            world_lights.digest(pixels) != meta["world_digest"]:
+        return None, "the world changed since the capture: capture the probe again"
+    return (pixels, mapping), None
 
 
 def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=()):
@@ -233,6 +259,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         if problem:
             raise BakeError(problem)
         probe, meta = exr.read(bpy.path.abspath(probe_path))
+        self._world, self._world_note = world_of(context.scene, meta)
         folder = output_folder()
         todo, taken = [], set()
         self._warnings = []
@@ -309,11 +336,11 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
 
     @staticmethod
     def _bake_steps(material, path, diffuse_path, lamp_path, probe, meta, probe_path,
-                    obj_name, runtime_path=None, knot_paths=()):
+                    obj_name, runtime_path=None, knot_paths=(), world=None, world_note=None):
         """One material's bake as steps: yields (fraction, message) after the fit, each
         batch of slices and the diffuse map; writes the files only at the end, both
         or neither, so a bake stopped between steps leaves nothing. Returns the step's
-        message."""
+        message. ``world``, ``world_note``: :func:`world_of` the probe."""
         settings = material.glossy
         method = settings.method_used()
         spec = settings.brdf_spec()
@@ -335,19 +362,23 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         size = "auto" if auto else settings.map_size
         max_size = settings.map_size if auto else None
         runtime = None
-        glossy_probe, lights = probe, ()
+        glossy_probe, lights, light_note = probe, (), None
         if settings.probe_lights and (sampled or runtime_path is not None):
             # The sampled part and the Hybrid's map see the probe without its small
             # bright lights; the lights are shaded exactly (bake.probe_lights).
             lobe = sampling_runtime.check(spec, settings.samples)[0]
-            glossy_probe, lights = yield from scaled_steps(background_steps(_light_steps(
-                probe, layout, lobe.mx, lobe.my)), 0.1 if lamp_path is not None else 0.0, 0.1)
+            glossy_probe, lights, measured = yield from scaled_steps(background_steps(
+                _light_steps(probe, layout, lobe.mx, lobe.my, world)),
+                0.1 if lamp_path is not None else 0.0, 0.1)
+            light_note = measured if world is not None else world_note
         if sampled or runtime_path is not None:
             rows, why = runtime_height(settings, probe, layout)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
                 spec, settings.samples, rows, why, glossy_probe, layout,
                 runtime_path is not None, lights)),
                 0.1, 0.3 if runtime_path is not None else 0.95)
+            if lights and light_note:
+                runtime_reason += f" ({light_note})"
         if sampled:
             image, atlas_meta = runtime
             rows, reason, runtime = atlas_meta["slice_height"], runtime_reason, None
@@ -427,7 +458,8 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     progress(index / max(len(todo), 1), f"baking {name}")
                     run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
                                                lamp_path, probe, meta, probe_path, obj.name,
-                                               runtime_path, knot_paths),
+                                               runtime_path, knot_paths, self._world,
+                                               self._world_note),
                               scaled(progress, index / len(todo), (index + 1) / len(todo)))
                     progress((index + 1) / len(todo), f"baked {name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
@@ -453,7 +485,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         name, path, diffuse_path, lamp_path, runtime_path, knot_paths = step
         steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
                                  self._probe, self._meta, self._probe_path, self._object_name,
-                                 runtime_path, knot_paths)
+                                 runtime_path, knot_paths, self._world, self._world_note)
         return prefixed_steps(f"{name}: ", steps)
 
     def _done_message(self):

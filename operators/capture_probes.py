@@ -6,7 +6,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime
+from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime, world_lights
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps
 from ..glossy_addon import ownership
@@ -197,7 +197,10 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 "samples": settings.capture_samples, "time": time.time()}
         meta["size_reason"] = self._faces_chosen[name][1]
         if settings.probe_source == "WORLD":  # the Mapping and Strength it was resampled with
-            meta["world_mapping"] = world_environment(context.scene.world)[1].to_meta()
+            image, mapping = world_environment(context.scene.world)
+            meta["world_mapping"] = mapping.to_meta()
+            # which image: the bake re-measures the probe's lights on its texels
+            meta["world_digest"] = world_lights.digest(image_pixels(image))
         exr.write(path, cube, meta)
         settings.probe_path = str(path)
         settings.probe_owner = name

@@ -109,6 +109,9 @@ def test_the_default_method_bakes_the_hybrid_and_beats_the_3d_map(auto_and_map):
     assert auto["method_used"] == "hybrid" and plain["method_used"] == "3d"
     assert auto["bake_path"].endswith("_hybrid.exr")
     assert auto["runtime_path"].endswith("_hybrid_runtime.exr")
+    # A World Only probe of a world that has not changed since the capture: its
+    # lights are measured on night.exr's own texels (bake.world_lights).
+    assert "re-measured on the world's 512-row image" in auto["size_reason"], auto["size_reason"]
     errors = {name: entry["figures"]["methods"]["eevee_glossy"]["relative_rms"]
               for name, entry in auto_and_map.items()}
     assert errors["auto"] < 0.9 * errors["3d"], errors

@@ -47,6 +47,13 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
     assert r["export"]["status"] == ["FINISHED"]
     np.testing.assert_array_equal(exported, exr.read(r["variants"]["tilted"]["probes"]["world"])[0])
     assert meta["world_mapping"]["strength"] == pytest.approx(2.5)
+    # A Hybrid's lights are measured on the world's own texels while the world is
+    # the one captured (the digest and Mapping in the probe's header), on the
+    # probe's once it is turned, and the bake says so.
+    lit = r["world_lights"]
+    assert lit["capture"] == lit["bake"] == lit["turned_bake"] == ["FINISHED"], lit
+    assert "re-measured on the world's 512-row image" in lit["reason"], lit["reason"]
+    assert "the world changed since the capture" in lit["turned_reason"], lit["turned_reason"]
     # An 8-bit sRGB image is decoded as Cycles decodes it: its blue channel is
     # 128/255 everywhere, 0.2158 in linear light (0.502 as stored).
     png = r["png"]

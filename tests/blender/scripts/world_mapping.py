@@ -12,7 +12,9 @@ the turned world behind a Mix Shader that shows the camera a plain colour
 one seen only by reflections, one only by the camera, and a point lamp; the
 tilted world through Export Environment.
 Writes their probe paths, and the operator's report for a world that World
-Only cannot resample.
+Only cannot resample; a Hybrid sphere's bake reasons in the tilted world, as
+captured and after the world is turned (its lights measured on the world's
+texels, then on the probe's).
 """
 
 import json
@@ -100,6 +102,29 @@ glossy_scene = bpy.context.scene.glossy
 glossy_scene.export_layout, glossy_scene.export_size, glossy_scene.export_mip = "cube", 32, "none"
 report["export"] = {"status": sorted(bpy.ops.glossy.export_environment()),
                     "path": bpy.path.abspath(glossy_scene.last_export)}
+
+# The Hybrid of a World Only probe measures its lights on the tilted world's own
+# texels; once the world is turned after the capture, on the probe's (and says why).
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1)
+sphere = bpy.context.object
+sphere.name = "lit"
+sphere.glossy.probe_source = "WORLD"
+sphere.glossy.probe_size_mode, sphere.glossy.probe_resolution = "FIXED", 32
+shiny = bpy.data.materials.new("shiny")
+shiny.glossy.model, shiny.glossy.method, shiny.glossy.roughness = "ggx", "hybrid", 0.3
+sphere.data.materials.append(shiny)
+bpy.ops.object.select_all(action="DESELECT")
+sphere.select_set(True)
+bpy.context.view_layer.objects.active = sphere
+report["world_lights"] = {"capture": sorted(bpy.ops.glossy.capture_probes()),
+                          "bake": sorted(bpy.ops.glossy.bake_materials()),
+                          "reason": shiny.glossy.size_reason}
+mapping = next(n for n in bpy.context.scene.world.node_tree.nodes if n.type == "MAPPING")
+mapping.inputs["Rotation"].default_value[2] += math.radians(10.0)
+shiny.glossy.roughness = 0.31  # a change the bake acts on
+report["world_lights"]["turned_bake"] = sorted(bpy.ops.glossy.bake_materials())
+report["world_lights"]["turned_reason"] = shiny.glossy.size_reason
+bpy.data.objects.remove(sphere)
 
 # An 8-bit sRGB PNG world (stored values 0.2-0.8): Cycles decodes it to linear.
 png = bpy.data.images.new("gradient", 64, 32, alpha=False)
