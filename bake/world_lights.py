@@ -17,18 +17,33 @@ in energy on the world: residual + lights = world, texel by texel. A cube
 light that no world texel reaches is dropped (its energy is still in the
 residual).
 
-Measured (a one-off script recorded in README "Stop 45": the Hybrid of
-bake.hybrid with 19 samples, a 64^2 px sphere of 2 x 2 sub-pixels, against
-the integral over the HDRI's bilinear reconstruction, each bundled HDRI at
-the face Auto captures for it): better than the cube's lights on 8 of 8
-HDRIs at GGX 0.3 and 0.6 (geometric mean of the error 0.69x and 0.86x),
-7 of 8 at GGX 0.2 and 0.45; sunrise.exr at GGX 0.2 0.90% -> 0.21%, studio at
-0.3 1.58% -> 0.67%. Not at GGX 0.1 (3 of 8, 1.77x): there a tile (a quarter
-of alpha, 0.0025 rad) is smaller than the HDRI's texel (0.006 rad), several
-of the cube's tiles share one world texel and lights are lost, and night's
-one-texel lamps at GGX 0.2 become points narrower than the light widening
-was fitted for (4.0% -> 15.5%). :func:`resolves` is that rule: use the
-world's texels only where the lobe's tiles are at least the world's texel.
+Each light's extent (what widens its highlight: probe_lights.Light.extent)
+is the RMS angle of its texel centres plus TENT_MOMENTS times its texels'
+own omega / 6: a lamp of one world texel is the tent Cycles' bilinear
+lookup makes of it, not a point.
+
+Measured (a one-off script, out/p46/variants2.py; README "Stop 46": the
+Hybrid of bake.hybrid with 19 samples, a 64^2 px sphere of 2 x 2 sub-pixels,
+against the integral over the HDRI's bilinear reconstruction, i.e. what
+Cycles renders, each bundled HDRI at the face Auto captures for it): against
+the cube's lights the geometric mean of the error is 0.71x / 0.72x / 0.76x /
+0.86x at GGX 0.2 / 0.3 / 0.45 / 0.6, lower on 30 of the 32 cases (sunrise at
+GGX 0.2 0.90% -> 0.15%, studio at 0.3 1.58% -> 0.69%); higher for city at
+0.45 (0.74% -> 0.76%) and night at 0.2 (4.0% -> 5.5%). With the lamps as
+points (TENT_MOMENTS 0) night at 0.2 measured 15.5%, the error of a few rim
+pixels where a lamp's highlight is sharper than a sub-pixel; its other cases
+within 0.1 point of the tent's except night at 0.3 (1.7% against 2.3%) and
+studio at 0.2 (1.3% against 1.5%). In EEVEE against Cycles the two were
+level on night at 0.2 and 0.3 and on sunrise at 0.2. Not at GGX 0.1 (3 of 8
+better in stop 45's measurement): there a tile (a quarter of alpha, 0.0025
+rad) is smaller than the HDRI's texel (0.006 rad), several of the cube's
+tiles share one world texel and lights are lost. :func:`resolves` is that
+rule: use the world's texels only where the lobe's tiles are at least the
+world's texel.
+
+glossy.bake_materials calls :func:`split_for` for a World Only probe whose
+header records the digest (:func:`digest`) and Mapping of the world image
+the scene still shows.
 
 Directions are world space (bake.envmap's axes); ``to_texture`` (3, 3) maps a
 world direction to the direction the Environment Texture looks up (a
@@ -57,6 +72,8 @@ LUMINANCE = probe_lights.LUMINANCE
 #: 0 shades a one-texel lamp as a point, 2 as the tent Cycles' bilinear
 #: lookup makes of a texel (second moment 2 omega / 6 about its centre).
 TENT_MOMENTS = 2.0
+#: Bright texels compared with the lights at a time (bounds the (chunk, lights) product).
+CHUNK = 65536
 
 
 def resolves(world_shape, alpha) -> bool:
@@ -77,41 +94,52 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
     texels, times ``strength``). Lights are returned brightest region first as
     given, each with its irradiance (W/m^2, RGB), direction and spread
     re-measured on the world's texels (module doc)."""
-    image = np.asarray(world, dtype=np.float64)[..., :3] * float(strength)
-    if image.ndim != 3 or image.shape[1] != 2 * image.shape[0]:
+    image = np.asarray(world)
+    if image.ndim != 3 or image.shape[2] < 3 or image.shape[1] != 2 * image.shape[0]:
         raise BakeError(f"a lat-long world is (H, 2H, 3), not {np.shape(world)}")
-    if not np.all(np.isfinite(image)):
+    # float32 throughout the image (an 8k x 4k world is 32M texels); float64 only
+    # for the bright texels the lights are measured on.
+    residual = np.array(image[..., :3], dtype=np.float32) * np.float32(strength)
+    if not np.all(np.isfinite(residual)):
         raise BakeError("the world image has non-finite texels (NaN or infinity)")
-    residual = image.astype(np.float32)
     if not lights:
         return residual, []
     thresholds = {float(light.threshold) for light in lights}
     if len(thresholds) != 1:
         raise BakeError("lights of one extraction share one threshold")
     layout = get_layout("latlong")
-    shape = image.shape[:2]
-    directions = layout.texel_directions(shape).reshape(-1, 3)
+    shape = residual.shape[:2]
+    row_omega = layout.solid_angles((shape[0], 1))[:, 0] / shape[1]  # (H,) sr per texel
+    luminance = (residual @ LUMINANCE.astype(np.float32)).reshape(-1)
+    row_sums = np.maximum(luminance, 0.0).reshape(shape).sum(axis=1, dtype=np.float64)
+    mean = float(row_sums @ row_omega / (4.0 * np.pi))
+    level = thresholds.pop() * mean
+    bright = np.flatnonzero(luminance > level)
+    rows, cols = np.divmod(bright, shape[1])
+    directions = layout.directions(cols + 0.5, rows + 0.5, shape)
     if to_texture is not None:  # texture directions -> world: the rotation's transpose
         directions = directions @ np.asarray(to_texture, dtype=np.float64)
-    omega = layout.solid_angles(shape).reshape(-1)
-    radiance = image.reshape(-1, 3)
+    omega = row_omega[rows]
+    radiance = residual.reshape(-1, 3)[bright].astype(np.float64)
     luminance = radiance @ LUMINANCE
-    mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
-    level = thresholds.pop() * mean
-    bright = np.nonzero(luminance > level)[0]
     centres = np.array([light.direction for light in lights], dtype=np.float64)
     cube_texel = 2.0 / float(cube_face)  # the cube's largest texel's angle (rad)
     reach = np.array([REACH_SPREADS * light.spread + REACH_TEXELS * cube_texel
                       for light in lights])
-    cosines = directions[bright] @ centres.T
-    nearest = np.argmax(cosines, axis=1)
-    angle = np.arccos(np.clip(cosines[np.arange(len(bright)), nearest], -1.0, 1.0))
+    nearest = np.empty(len(bright), dtype=np.intp)
+    angle = np.empty(len(bright))
+    for start in range(0, len(bright), CHUNK):  # (chunk, lights) at a time
+        cosines = directions[start:start + CHUNK] @ centres.T
+        nearest[start:start + CHUNK] = np.argmax(cosines, axis=1)
+        angle[start:start + CHUNK] = np.arccos(np.clip(np.take_along_axis(
+            cosines, nearest[start:start + CHUNK, None], axis=1)[:, 0], -1.0, 1.0))
     inside = angle <= reach[nearest]
-    bright, nearest = bright[inside], nearest[inside]
+    local = np.flatnonzero(inside)
+    nearest = nearest[inside]
     flat = residual.reshape(-1, 3)
     out = []
     for k, light in enumerate(lights):
-        texels = bright[nearest == k]
+        texels = local[nearest == k]  # indices into the bright texels' arrays
         if len(texels) == 0:
             continue
         scale = level / luminance[texels]
@@ -125,7 +153,7 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
         spread = float(np.sqrt(extent + own))
         out.append(probe_lights.Light(direction, excess.sum(axis=0), float(omega[texels].sum()),
                                       spread, light.tile, light.threshold, math.sqrt(own)))
-        flat[texels] = (radiance[texels] * scale[:, None]).astype(np.float32)
+        flat[bright[texels]] = (radiance[texels] * scale[:, None]).astype(np.float32)
     return residual, out
 
 

@@ -152,9 +152,10 @@ def world_face(image, roughness):
     return probe_detail.choose_world_face(image, min(widths), lobe_face, cap)[0]
 
 
-#: Where the probe's lights are measured (``--lights``): on the cube (the bake's
-#: today), on the world's own texels (bake.world_lights), or on the world's where the
-#: lobe resolves them (world_lights.resolves).
+#: Where the probe's lights are measured (``--lights``): on the cube (the bake's for a
+#: probe rendered from the scene), on the world's own texels (bake.world_lights), or
+#: on the world's where the lobe resolves them (world_lights.resolves: the bake's for
+#: a World Only probe of an unchanged world, bake.world_lights.split_for).
 LIGHTS = ["cube"]
 LIGHT_SOURCES = ("cube", "world", "auto")
 

@@ -177,3 +177,21 @@ def test_split_for_measures_a_turned_worlds_lights_on_its_texels():
     assert "more than turn" in skewed[2] and skewed[1] is plain
     assert world_lights.split_for(cube, "cube", alpha)[2] is None
     assert world_lights.split_for(cube, "cube", alpha)[0] is plain_residual
+
+
+def test_the_lights_do_not_depend_on_the_chunking(monkeypatch):
+    """The bright texels are compared with the lights a chunk at a time (memory
+    stays bounded on an 8k world); chunks of 2 texels give the same split,
+    bit for bit, as one chunk for all."""
+    world = _world(128)
+    cube = convert(world, "latlong", "cube", 16)
+    _, lights = probe_lights.extract_for(cube, "cube", 0.3 ** 2)
+    whole = world_lights.from_world(lights, world, 16, strength=1.7)
+    monkeypatch.setattr(world_lights, "CHUNK", 2)
+    chunked = world_lights.from_world(lights, world, 16, strength=1.7)
+    np.testing.assert_array_equal(whole[0], chunked[0])
+    assert len(whole[1]) == len(chunked[1]) > 0
+    for a, b in zip(whole[1], chunked[1], strict=True):
+        np.testing.assert_array_equal(a.direction, b.direction)
+        np.testing.assert_array_equal(a.irradiance, b.irradiance)
+        assert a.spread == b.spread
