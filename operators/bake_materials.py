@@ -259,7 +259,6 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         if problem:
             raise BakeError(problem)
         probe, meta = exr.read(bpy.path.abspath(probe_path))
-        self._world, self._world_note = world_of(context.scene, meta)
         folder = output_folder()
         todo, taken = [], set()
         self._warnings = []
@@ -332,6 +331,12 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     f"environment), the environment reflection is left out")
             todo.append((material.name, path, diffuse_path, lamp_path, runtime_path,
                          knot_paths))
+        # The world's pixels (read and hashed: about a second for an 8k HDRI) only
+        # when some material shades probe lights (Runtime Sampling, the Hybrid).
+        lit = any(bpy.data.materials[name].glossy.probe_lights
+                  and bpy.data.materials[name].glossy.method_used() in ("runtime", "hybrid")
+                  for name, *_ in todo)
+        self._world, self._world_note = world_of(context.scene, meta) if lit else (None, None)
         return obj, probe, meta, probe_path, todo
 
     @staticmethod
