@@ -6,6 +6,7 @@ checks). Progress goes to stderr; the list of files written to stdout.
 """
 
 import argparse
+import json
 import os
 import signal
 import sys
@@ -19,7 +20,7 @@ from . import __version__, exr, outputs
 from .envmap import LAYOUTS, convert, get_layout, mip
 from .envmap.convert import supersampling
 from .errors import BakeError
-from .progress import LinePrinter
+from .progress import LinePrinter, report, scaled
 
 __all__ = ["main", "run"]
 
@@ -222,7 +223,10 @@ def cmd_prefilter(args, mode=None):
     if mode != "irradiance":
         from .brdf import parse
 
-        parse(brdf_spec)  # a bad spec is refused before the probe is read
+        model = parse(brdf_spec)  # a bad spec is refused before the probe is read
+        if not model.isotropic and mode in ("3d", "2d"):
+            raise BakeError(f"{model.spec} is anisotropic: the {mode} map's lobe fitting needs "
+                            f"an isotropic BRDF{_sampling_hint(model.spec)}")
     image, meta = _read_rgb(args.input, args.sanitize)
     layout = args.source or _guess_layout(image.shape[:2], meta, args.input)
     progress = None if args.quiet else LinePrinter()
@@ -235,6 +239,90 @@ def cmd_prefilter(args, mode=None):
     reason = baked.meta.get("size_reason")
     print(f"wrote {output} ({mode}, {len(baked.layers)} layer(s)"
           f"{'; ' + reason if reason else ''}) and {output.with_suffix('.json')}")
+
+
+def _sampling_hint(spec) -> str:
+    """"; python -m bake sample ..." when runtime sampling takes BRDF ``spec``."""
+    from .sampling_runtime import check
+
+    try:
+        check(spec)
+    except BakeError:
+        return ""
+    return "; `python -m bake sample` bakes it for runtime sampling"
+
+
+def cmd_sample(args):
+    """Runtime regular sampling's texture (bake.sampling_runtime.pack) of a probe, and
+    with ``--map`` the Hybrid: the 3D map of the same probe without its lights, the
+    blend weights w(mu) in the texture's metadata (bake.hybrid)."""
+    from . import brdf, hybrid, prefilter, probe_lights, sampling_runtime
+    from .atlas import storage_precision
+
+    output = _check_output(args.output, args.input)
+    sidecar = outputs.check_implicit(output.with_suffix(".json"),
+                                     "runtime texture's .json sidecar")
+    map_path = None
+    if args.map:
+        map_path = _check_output(args.map, args.input)
+        if outputs.same_file(map_path, output):
+            raise BakeError(f"{map_path}: --map and -o name the same file")
+        outputs.check_implicit(map_path.with_suffix(".json"), "map's .json sidecar")
+    model = brdf.parse(args.brdf)
+    lobe, _ = sampling_runtime.check(model.spec, args.samples)  # before the probe is read
+    if map_path is not None and lobe.anisotropic:
+        raise BakeError(f"{model.spec} is anisotropic: the Hybrid's 3D map needs an isotropic "
+                        f"lobe; leave out --map (runtime sampling alone follows anisotropy)")
+    image, meta = _read_rgb(args.input, args.sanitize)
+    layout = args.source or _guess_layout(image.shape[:2], meta, args.input)
+    image = get_layout(layout).check_image(image)
+    for name, value in (("--height", args.height), ("--max-size", args.max_size)):
+        if value is not None and not 4 <= value <= prefilter.MAX_SIZE:
+            raise BakeError(f"{name} must be a whole number in [4, {prefilter.MAX_SIZE}], "
+                            f"not {value}")
+    cap = args.max_size or prefilter.DEFAULT_MAX_SIZE
+    rows, why = sampling_runtime.stack_height(image.shape, layout, fixed=args.height, cap=cap,
+                                              names=("--height", f"--max-size {cap}"))
+    prefilter.check_memory(rows, 2, "level stack")
+    progress = None if args.quiet else LinePrinter()
+    residual, lights = image, ()
+    if not args.no_lights:
+        report(progress, 0.0, "taking the probe's small bright lights out")
+        residual, lights = probe_lights.extract_kept(image, layout, lobe.mx, lobe.my)
+    report(progress, 0.1, f"pre-blurring {rows}-row probe levels and the albedo table")
+    atlas, atlas_meta = sampling_runtime.pack(residual, model.spec, layout=layout,
+                                              budget=args.samples, height=rows, lights=lights)
+    reason = (f"runtime sampling: {len(atlas_meta['prob'])} samples over "
+              f"{atlas_meta['levels']} levels of {rows} rows ({why})")
+    if not args.no_lights:
+        reason += f"; {probe_lights.describe(lights)}"
+    baked = None
+    if map_path is not None:
+        baked = prefilter.prefilter(residual, model.spec, "3d", args.size, slices=args.slices,
+                                    lobes_count=args.lobes, layout=layout,
+                                    max_size=args.max_size,
+                                    progress=scaled(progress, 0.4, 0.95))
+        baked.meta["source"] = Path(args.input).name
+        baked.meta["hybrid_runtime"] = output.name
+        centres, weights = hybrid.weight_curve(float(np.sqrt(atlas_meta["ax"])),
+                                               samples=len(atlas_meta["prob"]),
+                                               kind=atlas_meta.get("kind", "ggx"))
+        atlas_meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist(),
+                           "hybrid_map": map_path.name})
+        reason += f"; the Hybrid's 3D map: {baked.meta['size_reason']}"
+    half = storage_precision(atlas) == "half"
+    atlas_meta.update(_meta(args, layout, image.shape[:2], {
+        "mode": atlas_meta["mode"], "size": rows, "size_reason": reason,
+        "precision": "half" if half else "float32"}))
+    text = json.dumps(atlas_meta, indent=1, sort_keys=True)
+    with outputs.Staged() as staged:
+        staged.add(output, lambda target: exr.write(target, atlas, atlas_meta, half=half))
+        staged.add(sidecar, lambda target: Path(target).write_text(text))
+        if baked is not None:
+            baked.write_staged(staged, map_path)
+    report(progress, 1.0, "written")
+    print(f"wrote {output} and {sidecar.name} ({reason})"
+          + (f", {map_path} and {map_path.with_suffix('.json').name}" if baked else ""))
 
 
 def cmd_reference(args):
@@ -501,6 +589,38 @@ def _build_parser():
     _add_prefilter_options(p)
     p.add_argument("--mode", default="3d", choices=list(MODES), help="prefilter mode")
     p.set_defaults(run=cmd_prefilter)
+
+    p = commands.add_parser("sample", help="runtime regular sampling's texture of a probe "
+                                           "(anisotropic lobes too); --map: the Hybrid")
+    p.add_argument("input", help="probe EXR (cube strip or lat-long)")
+    p.add_argument("--brdf", required=True,
+                   help="BRDF spec with one GGX or Cycles Beckmann lobe, e.g. "
+                        "ggx:roughness=0.3,anisotropy=0.8")
+    p.add_argument("--from", dest="source", choices=["latlong", "cube"],
+                   help="probe layout (default: from metadata or shape)")
+    p.add_argument("--samples", type=_positive_int, default=19,
+                   help="samples per pixel: the regular pattern with the closest count "
+                        "(default 19)")
+    p.add_argument("--height", type=_positive_int, default=None,
+                   help="rows of the level stack (a power of two; default: the probe's own "
+                        "detail, at most --max-size)")
+    p.add_argument("--no-lights", action="store_true",
+                   help="keep the probe's small bright lights in the level stack rather "
+                        "than shading them exactly")
+    p.add_argument("--map", metavar="MAP.exr",
+                   help="also bake the Hybrid's 3D map here (isotropic lobes) and put the "
+                        "blend weights w(n.v) in the texture's metadata")
+    p.add_argument("--size", default="auto", type=_size_or_auto,
+                   help="--map: lat-long rows of the 3D map, or 'auto' (default)")
+    p.add_argument("--max-size", type=_positive_int, default=None,
+                   help="upper bound of the automatic sizes (default 384)")
+    p.add_argument("--slices", type=int, default=16, help="--map: view elevations (default 16)")
+    p.add_argument("--lobes", type=int, default=1, help="--map: lobes per slice (default 1)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output EXR: the runtime texture (+ .json sidecar)")
+    p.add_argument("--sanitize", action="store_true", help="replace NaN/inf input texels")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_sample)
 
     p = commands.add_parser("irradiance", help="diffuse irradiance map of a probe")
     _add_prefilter_options(p, with_brdf=False)

@@ -65,7 +65,7 @@ import numpy as np
 from .errors import BakeError
 
 __all__ = ["ErrorTable", "load_table", "blend_weight", "weight_curve", "blend_curve",
-           "TABLE_PATH", "table_path"]
+           "shade", "TABLE_PATH", "table_path"]
 
 TABLE_PATH = Path(__file__).with_name("hybrid_errors.json")
 #: Lobe kinds (bake.sampling_runtime.KINDS) with a table of their own.
@@ -184,3 +184,29 @@ def blend_curve(mu, centres, weights):
         t = np.clip((mu - centres[i]) / (centres[i + 1] - centres[i]), 0.0, 1.0)
         value = value + (float(weights[i + 1]) - float(weights[i])) * t
     return value
+
+
+def shade(baked_map, atlas, meta, normals, views, tangents=None):
+    """(N, 3) radiance the Hybrid's nodes compute for world-space unit normals and
+    views (surface to viewer), (N, 3) each: (1 - w) (map + lights) + w runtime.
+
+    baked_map: the 3D map of the probe without its lights (bake.prefilter.BakedMap);
+    atlas, meta: the runtime texture of that residual probe with its lights
+    (bake.sampling_runtime.pack), whose meta carries the w(mu) knots ``blend_mu``,
+    ``blend_weight`` (:func:`weight_curve`); w is :func:`blend_curve` at mu = n.v.
+    The lights' exact term is added to the map's part, so it stands outside the
+    blend (glossy_addon.sampling_nodes.hybrid_value, glossy_addon.nodes). tangents:
+    as bake.sampling_runtime.shade."""
+    from .sampling_runtime import shade as runtime_shade
+
+    normals = np.asarray(normals, dtype=np.float64)
+    views = np.asarray(views, dtype=np.float64)
+    if "blend_mu" not in meta:
+        raise BakeError("the runtime texture has no Hybrid weights (blend_mu, blend_weight)")
+    runtime = runtime_shade(atlas, meta, normals, views, tangents)
+    lights = runtime - runtime_shade(atlas, {**meta, "lights": []}, normals, views, tangents) \
+        if meta.get("lights") else 0.0
+    mu = np.sum(normals * views, axis=-1) / np.maximum(
+        np.linalg.norm(normals, axis=-1) * np.linalg.norm(views, axis=-1), 1e-30)
+    weight = blend_curve(mu, meta["blend_mu"], meta["blend_weight"])[..., None]
+    return (1.0 - weight) * (baked_map.shade(normals, views) + lights) + weight * runtime

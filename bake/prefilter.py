@@ -399,15 +399,22 @@ class BakedMap:
 
         Both are checked first (the sidecar may replace only a file Glossy
         wrote), staged, and renamed together: a failure leaves neither."""
+        with outputs.Staged() as staged:
+            path = self.write_staged(staged, path)
+        return path
+
+    def write_staged(self, staged, path):
+        """:meth:`write` as part of a larger result: the EXR and its sidecar are
+        checked and added to ``staged`` (bake.outputs.Staged), renamed with the
+        result's other files. Returns the path."""
         path = outputs.check_target(path, ".exr")
         sidecar = outputs.check_implicit(path.with_suffix(".json"), "map's .json sidecar")
         text = json.dumps(self.meta, indent=1, sort_keys=True)
-        with outputs.Staged() as staged:
-            if self.mode == "split-sum":
-                staged.add(path, lambda target: exr.write_parts(target, self.layers, self.meta))
-            else:
-                staged.add(path, lambda target: exr.write(target, self.layers, self.meta))
-            staged.add(sidecar, lambda target: Path(target).write_text(text))
+        if self.mode == "split-sum":
+            staged.add(path, lambda target: exr.write_parts(target, self.layers, self.meta))
+        else:
+            staged.add(path, lambda target: exr.write(target, self.layers, self.meta))
+        staged.add(sidecar, lambda target: Path(target).write_text(text))
         return path
 
 

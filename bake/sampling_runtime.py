@@ -109,7 +109,7 @@ from .sampling import DEFAULTS, lobe_of, pattern_for_budget
 from .sampling_atlas import AtlasProbe, pack_levels
 
 __all__ = ["pack", "shade", "mip_bias_for", "check", "probe_widths", "samples_of", "MODE",
-           "ALBEDO_MU", "ALBEDO_PHI"]
+           "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS"]
 
 MODE = "atlas_runtime"
 #: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
@@ -133,12 +133,41 @@ LIGHT_WIDENING = 0.5
 #: The MIP bias of the level lookups by lobe width: (alpha, bias) at two alphas,
 #: linear in log alpha between and constant beyond (:func:`mip_bias_for`).
 BIAS_BY_ALPHA = ((0.09, 0.0), (0.36, -1.0))
+#: Smallest level stack (rows) that holds the albedo table: ALBEDO_MU columns
+#: (a slice is twice as wide as it is high) and, for an anisotropic lobe with
+#: probe lights, 2 ALBEDO_PHI + 3 rows.
+MIN_STACK_ROWS = 16
 
 
 def _lobe_directions(mu, phi):
     mu, phi = np.broadcast_arrays(mu, phi)
     sin = np.sqrt(np.clip(1.0 - mu * mu, 0.0, None))
     return np.stack([sin * np.cos(phi), sin * np.sin(phi), mu], -1)
+
+
+def stack_height(probe_shape, layout, fixed=None, cap=None,
+                 names=("Map Size", "Max Map Size")) -> tuple:
+    """(rows, why) of the level stack :func:`pack` makes from a probe of
+    ``probe_shape`` (H, W) in ``layout``: ``fixed`` rows when given, else the
+    probe's own detail (a lat-long twice a cube face's rows, or the rows of a
+    lat-long or other map) capped by ``cap``; rounded down to a power of two
+    (the level chain halves it); without ``fixed``, at least MIN_STACK_ROWS.
+    ``names``: what ``why`` calls the fixed size and the cap (Blender's fields,
+    or the command line's options)."""
+    natural = 2 * int(probe_shape[0]) if layout == "cube" else int(probe_shape[0])
+    if fixed is not None:
+        wanted, why = int(fixed), f"set by {names[0]}"
+    elif cap is not None and natural > cap:
+        wanted, why = int(cap), f"the probe's {natural} capped by {names[1]}"
+    else:
+        wanted, why = natural, "the probe's own detail"
+    rows = 1 << max(2, int(np.floor(np.log2(max(wanted, 4)))))
+    if rows != wanted:
+        why += f", rounded down to a power of two from {wanted}"
+    if fixed is None and rows < MIN_STACK_ROWS:
+        rows, why = MIN_STACK_ROWS, f"{why}, raised to {MIN_STACK_ROWS}, the least that " \
+                                    f"holds the albedo table"
+    return rows, why
 
 
 def check(spec, budget=19):

@@ -49,14 +49,14 @@ import bpy
 from ..bake import brdf
 from ..bake.errors import BakeError
 from ..bake.sampling import lobe_of
-from ..bake.sampling_runtime import check
+from ..bake.sampling_runtime import MIN_STACK_ROWS, check
 
 #: Blender version whose shader nodes have repeat zones (glossy_addon.sampling_nodes).
 SHADER_LOOPS = (5, 0, 0)
 #: Models of the Material panel with no lobe the runtime-sampling nodes sample.
 NOT_GGX = ("ashikhmin_shirley", "ward", "phong", "lambert", "BUMP")
 #: Smallest level stack (rows) that holds the albedo table (bake.sampling_runtime).
-MIN_RUNTIME_ROWS = 16
+MIN_RUNTIME_ROWS = MIN_STACK_ROWS
 
 
 def choose(settings) -> tuple:

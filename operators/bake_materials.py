@@ -26,7 +26,6 @@ from ..glossy_addon.checks import check_settings
 from ..glossy_addon.lamps import lamp_set, scene_lamps
 from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent, stash_original
-from ..glossy_addon.method_choice import MIN_RUNTIME_ROWS
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas
 from ..glossy_addon.paths import output_folder
@@ -133,23 +132,12 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
 
 
 def runtime_height(settings, probe, layout) -> tuple:
-    """(rows, why) of the runtime-sampling level stack: the probe's own detail (a
-    lat-long twice a cube face's rows), at most Map Size (Auto) or Map Size
-    (Fixed), as a power of two (the level chain halves it)."""
-    natural = 2 * probe.shape[0] if layout == "cube" else probe.shape[0]
-    if settings.size_mode == "FIXED":
-        wanted, why = settings.map_size, "set by Map Size"
-    elif natural > settings.map_size:
-        wanted, why = settings.map_size, f"the probe's {natural} capped by Max Map Size"
-    else:
-        wanted, why = natural, "the probe's own detail"
-    rows = 1 << max(2, int(np.floor(np.log2(max(wanted, 4)))))
-    if rows != wanted:
-        why += f", rounded down to a power of two from {wanted}"
-    if settings.size_mode != "FIXED" and rows < MIN_RUNTIME_ROWS:
-        rows, why = MIN_RUNTIME_ROWS, f"{why}, raised to {MIN_RUNTIME_ROWS}, the least that " \
-                                      f"holds the albedo table"
-    return rows, why
+    """(rows, why) of the runtime-sampling level stack
+    (bake.sampling_runtime.stack_height): the probe's own detail, at most Map Size
+    (Auto) or Map Size (Fixed), as a power of two."""
+    fixed = settings.map_size if settings.size_mode == "FIXED" else None
+    return sampling_runtime.stack_height(probe.shape, layout, fixed=fixed,
+                                         cap=settings.map_size)
 
 
 def _light_steps(probe, layout, ax, ay, world=None):
