@@ -6,7 +6,7 @@ few of the world image's texels wide break that rule: each probe texel
 spreads a lamp over its whole area and the bilinear lookup over two texels,
 so a lobe a few texels wide sees the lamp moved and smeared, differently at
 every face size (aliasing). Measured against Cycles in EEVEE
-(benchmarks/runtime_validate.py, README "Stop 33"): interior.exr and
+(benchmarks/runtime_validate.py, docs/HISTORY.md "Stop 33"): interior.exr and
 night.exr at GGX 0.3 are 8.4% / 6.7% off from the 72 px face the lobe rule
 gives and 3.6% / 4.4% from a 160 px one.
 

@@ -22,7 +22,7 @@ is the RMS angle of its texel centres plus TENT_MOMENTS times its texels'
 own omega / 6: a lamp of one world texel is the tent Cycles' bilinear
 lookup makes of it, not a point.
 
-Measured (a one-off script, out/p46/variants2.py; README "Stop 46": the
+Measured (a one-off script, out/p46/variants2.py; docs/HISTORY.md "Stop 46": the
 Hybrid of bake.hybrid with 19 samples, a 64^2 px sphere of 2 x 2 sub-pixels,
 against the integral over the HDRI's bilinear reconstruction, i.e. what
 Cycles renders, each bundled HDRI at the face Auto captures for it): against

@@ -3,7 +3,7 @@ Hybrid is the default wherever it is better).
 
 Measured in EEVEE against Cycles on an isolated sphere in every bundled HDRI
 (benchmarks/runtime_validate.py, 19 samples, each roughness at the Hybrid's
-Auto probe face, all three methods from that probe; README, "Stop 33"): for
+Auto probe face, all three methods from that probe; docs/HISTORY.md, "Stop 33"): for
 isotropic GGX 0.1 / 0.2 / 0.3 / 0.45 / 0.6 the Hybrid is below both the 3D
 map and Runtime Sampling in 30 of 40 cases, level with the better one to a
 tenth of a point in 9 and above Runtime by 0.1 point once; it is below the
@@ -41,7 +41,7 @@ out: benchmarks/hybrid.py --brdf beckmann): below both the 3D map of the
 residual probe with the lights' exact term and runtime sampling in 35 of 40
 cases, and far below the 3D map of the whole probe that Auto gave Beckmann
 before (e.g. interior 0.3: 39.6% with GGX's table already down to 1.9%).
-In EEVEE against Cycles: README, "Stop 37".
+In EEVEE against Cycles: docs/HISTORY.md, "Stop 37".
 """
 
 import bpy

@@ -99,7 +99,7 @@ def test_world_lights_are_closer_to_the_world_integral_than_the_cubes():
     0.2-0.6, 8-24 px faces; out/ script, stop 45) the world's lights were
     closer in seven (0.087 -> 0.051, 0.043 -> 0.006, 0.027 -> 0.025, ...) and
     farther in one (GGX 0.3, 16 px faces: 0.009 -> 0.019); on the bundled
-    HDRIs at GGX 0.3 closer on all eight (README "Stop 45")."""
+    HDRIs at GGX 0.3 closer on all eight (docs/HISTORY.md "Stop 45")."""
     world = _world()
     spec = "ggx:roughness=0.3"
     model = brdf.parse(spec)

@@ -144,7 +144,7 @@ def test_a_beckmann_material_is_sampled_at_runtime_and_beats_native_eevee(beckma
     brushed 4.0% against native's 50.1%. (Against native on the isotropic
     sphere there is no margin to assert here: EEVEE's sun extraction shades
     sunset's sun as a lamp, 3.8%, and Cycles' 64 spp noise is most of both;
-    at 128 px and 2 x 256 spp see README "Stop 37".)"""
+    at 128 px and 2 x 256 spp see docs/HISTORY.md "Stop 37".)"""
     for name in ("Plain", "Map", "Brushed"):
         entry = beckmann[name]
         assert entry["capture"] == entry["bake"] == entry["attach"] == ["FINISHED"], entry
