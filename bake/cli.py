@@ -256,7 +256,7 @@ def cmd_sample(args):
     """Runtime regular sampling's texture (bake.sampling_runtime.pack) of a probe, and
     with ``--map`` the Hybrid: the 3D map of the same probe without its lights, the
     blend weights w(mu) in the texture's metadata (bake.hybrid)."""
-    from . import brdf, hybrid, prefilter, probe_lights, sampling_runtime
+    from . import brdf, hybrid, prefilter, probe_lights, sampling_runtime, world_lights
     from .atlas import storage_precision
 
     output = _check_output(args.output, args.input)
@@ -288,7 +288,10 @@ def cmd_sample(args):
     residual, lights = image, ()
     if not args.no_lights:
         report(progress, 0.0, "taking the probe's small bright lights out")
-        residual, lights = probe_lights.extract_kept(image, layout, lobe.mx, lobe.my)
+        if layout == "latlong":  # the world itself: its texels as Cycles spreads them
+            residual, lights = world_lights.split_latlong(image, lobe.mx, lobe.my)
+        else:
+            residual, lights = probe_lights.extract_kept(image, layout, lobe.mx, lobe.my)
     report(progress, 0.1, f"pre-blurring {rows}-row probe levels and the albedo table")
     atlas, atlas_meta = sampling_runtime.pack(residual, model.spec, layout=layout,
                                               budget=args.samples, height=rows, lights=lights)
@@ -325,13 +328,12 @@ def cmd_sample(args):
           + (f", {map_path} and {map_path.with_suffix('.json').name}" if baked else ""))
 
 
-def cmd_reference(args):
-    from . import brdf, reference
+def _pixels(args):
+    """(normals (H, W, 3), views (H, W, 3), mask (H, W), where) of ``--sphere SIZE`` or
+    ``--buffers EXR`` (its 'normal' layer and a 'view' layer, or 'position' and
+    ``--camera``), unit vectors; ``where``: what the output's header records."""
+    from . import reference
 
-    output = _check_output(args.output, args.input, *([args.buffers] if args.buffers else []))
-    model = brdf.parse(args.brdf)
-    probe, meta = _read_rgb(args.input, args.sanitize)
-    layout = args.source or _guess_layout(probe.shape[:2], meta, args.input)
     if args.buffers:
         layers, _ = exr.read(args.buffers, layers=True)
         normals = reference.vector_layer(layers, "normal", args.buffers)
@@ -347,25 +349,91 @@ def cmd_reference(args):
         mask = (length > 0.5) & (np.linalg.norm(views, axis=-1) > 0)
         normals = normals / np.where(length > 0, length, 1.0)[..., None]
         views = views / np.maximum(np.linalg.norm(views, axis=-1, keepdims=True), 1e-30)
-        source = {"buffers": Path(args.buffers).name, "camera": args.camera}
+        where = {"buffers": Path(args.buffers).name, "camera": args.camera}
     else:
         normals, views, mask = reference.sphere_buffers(args.sphere, args.distance, args.lens)
-        source = {"sphere": args.sphere, "distance": args.distance, "lens_mm": args.lens}
-    pixels = int(mask.sum())
-    if not pixels:
+        where = {"sphere": args.sphere, "distance": args.distance, "lens_mm": args.lens}
+    if not mask.any():
         raise BakeError("no pixel to render: the buffers hold no surface")
+    return normals, views, mask, where
+
+
+def _rgba(mask, radiance):
+    """(H, W, 4) float32: ``radiance`` (N, 3) at the ``mask``'s pixels, A = surface."""
+    image = np.zeros((*mask.shape, 4), dtype=np.float32)
+    image[mask, :3] = radiance
+    image[mask, 3] = 1.0
+    return image
+
+
+def cmd_reference(args):
+    from . import brdf, reference
+
+    output = _check_output(args.output, args.input, *([args.buffers] if args.buffers else []))
+    model = brdf.parse(args.brdf)
+    probe, meta = _read_rgb(args.input, args.sanitize)
+    layout = args.source or _guess_layout(probe.shape[:2], meta, args.input)
+    normals, views, mask, where = _pixels(args)
+    pixels = int(mask.sum())
     progress = None if args.quiet else LinePrinter()
     radiance = reference.render(model, probe, layout, normals[mask], views[mask],
                                 tolerance=args.tolerance, progress=progress,
                                 reconstruction=args.reconstruction)
-    image = np.zeros((*mask.shape, 4), dtype=np.float32)
-    image[mask, :3] = radiance
-    image[mask, 3] = 1.0
-    exr.write(output, image, _meta(args, layout, probe.shape[:2], {
+    exr.write(output, _rgba(mask, radiance), _meta(args, layout, probe.shape[:2], {
         "kind": "reference", "brdf": model.spec, "probe": Path(args.input).name,
         "pixels": pixels, "tolerance": args.tolerance,
-        "reconstruction": args.reconstruction, **source}))
+        "reconstruction": args.reconstruction, **where}))
     print(f"wrote {output} ({pixels} pixels, {model.spec} against {Path(args.input).name})")
+
+
+def cmd_lookup(args):
+    """What a baked file gives at each pixel: the NumPy twin of the lookup Blender's
+    node groups do (BakedMap.shade; bake.sampling_runtime.shade; bake.hybrid.shade
+    for a runtime texture with the Hybrid's weights and its 3D map)."""
+    from . import hybrid, prefilter, sampling_runtime
+
+    inputs = [args.input] + ([args.buffers] if args.buffers else []) + \
+        ([args.map] if args.map else [])
+    output = _check_output(args.output, *inputs)
+    header = exr.read_header(args.input)
+    raw = header.get(exr.META_ATTRIBUTE)
+    meta = json.loads(raw) if raw else {}
+    mode = meta.get("mode")
+    runtime = mode == sampling_runtime.MODE
+    if not runtime and mode not in prefilter.MODES:
+        raise BakeError(f"{args.input}: not a map or runtime texture Glossy baked (mode "
+                        f"{mode!r}); `python -m bake prefilter` or `sample` writes one")
+    map_path = args.map
+    if runtime and map_path is None and meta.get("hybrid_map"):
+        map_path = str(Path(args.input).with_name(meta["hybrid_map"]))
+        if not Path(map_path).exists():
+            raise BakeError(f"{args.input}: its Hybrid map {meta['hybrid_map']} is not beside "
+                            f"it; pass --map, or --no-map for runtime sampling alone")
+    if args.no_map:
+        map_path = None
+    if map_path is not None and not runtime:
+        raise BakeError(f"{args.input}: --map goes with a runtime texture (the Hybrid)")
+    if map_path is not None and "blend_mu" not in meta:
+        raise BakeError(f"{args.input}: the runtime texture has no Hybrid weights; bake it "
+                        f"with `python -m bake sample --map`")
+    normals, views, mask, where = _pixels(args)
+    n, v = normals[mask], views[mask]
+    if runtime:
+        atlas, _ = exr.read(args.input)
+        if map_path is not None:
+            radiance = hybrid.shade(prefilter.load(map_path), atlas, meta, n, v)
+            what = f"the Hybrid of {Path(args.input).name} and {Path(map_path).name}"
+        else:
+            radiance = sampling_runtime.shade(atlas, meta, n, v)
+            what = f"runtime sampling of {Path(args.input).name}"
+    else:
+        radiance = prefilter.load(args.input).shade(n, v)
+        what = f"the {mode} map {Path(args.input).name}"
+    exr.write(output, _rgba(mask, radiance), {
+        "generator": f"glossy-bake {__version__}", "kind": "lookup", "source":
+        Path(args.input).name, "map": Path(map_path).name if map_path else None,
+        "mode": "hybrid" if map_path else mode, "pixels": int(mask.sum()), **where})
+    print(f"wrote {output} ({int(mask.sum())} pixels, {what})")
 
 
 def _report_table(args, model, progress):
@@ -544,6 +612,21 @@ def _add_prefilter_options(p, with_brdf=True):
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
 
 
+def _add_pixel_options(p):
+    """The pixels a render command shades: an analytic sphere or render passes."""
+    where = p.add_mutually_exclusive_group(required=True)
+    where.add_argument("--sphere", type=_positive_int, metavar="SIZE",
+                       help="an analytic unit sphere, SIZE x SIZE pixels, seen from "
+                            "(0, -distance, 0) along +Y")
+    where.add_argument("--buffers", metavar="EXR",
+                       help="render passes: a 'normal' layer (world space) and a 'view' layer "
+                            "(surface to viewer) or a 'position' layer with --camera")
+    p.add_argument("--camera", type=_vector, help="camera position X,Y,Z (with 'position')")
+    p.add_argument("--distance", type=float, default=6.0, help="sphere: camera distance")
+    p.add_argument("--lens", type=float, default=90.0, help="sphere: focal length (mm, 36 mm "
+                                                            "sensor)")
+
+
 def _build_parser():
     parser = _Parser(prog="python -m bake", description="Glossy's pure-NumPy baker.")
     parser.add_argument("--version", action="version", version=__version__)
@@ -632,17 +715,7 @@ def _build_parser():
     p.add_argument("--brdf", required=True, help="BRDF spec (any of bake.brdf)")
     p.add_argument("--from", dest="source", choices=layouts,
                    help="probe layout (default: from metadata or shape)")
-    where = p.add_mutually_exclusive_group(required=True)
-    where.add_argument("--sphere", type=int, metavar="SIZE",
-                       help="an analytic unit sphere, SIZE x SIZE pixels, seen from "
-                            "(0, -distance, 0) along +Y")
-    where.add_argument("--buffers", metavar="EXR",
-                       help="render passes: a 'normal' layer (world space) and a 'view' layer "
-                            "(surface to viewer) or a 'position' layer with --camera")
-    p.add_argument("--camera", type=_vector, help="camera position X,Y,Z (with 'position')")
-    p.add_argument("--distance", type=float, default=6.0, help="sphere: camera distance")
-    p.add_argument("--lens", type=float, default=90.0, help="sphere: focal length (mm, 36 mm "
-                                                            "sensor)")
+    _add_pixel_options(p)
     p.add_argument("--tolerance", type=float, default=None,
                    help="relative error budget per block (default: bake.reference's; 0 = "
                         "every texel)")
@@ -656,6 +729,18 @@ def _build_parser():
     p.set_defaults(run=cmd_reference)
 
     from .separable import MAPS, METHODS, PARAMETERIZATIONS
+
+    p = commands.add_parser("lookup", help="render what a baked map or runtime texture gives "
+                                           "(the node groups' lookup, in NumPy)")
+    p.add_argument("input", help="a map (prefilter) or runtime texture (sample) EXR")
+    p.add_argument("--map", metavar="MAP.exr",
+                   help="the Hybrid's 3D map (default: the texture's own, beside it)")
+    p.add_argument("--no-map", action="store_true",
+                   help="runtime sampling alone, even for a Hybrid's texture")
+    _add_pixel_options(p)
+    p.add_argument("-o", "--output", required=True, help="output EXR (RGBA, A = surface)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(run=cmd_lookup)
 
     p = commands.add_parser("factorize", help="separable approximation of a BRDF (Kautz & "
                                               "McCool 1999): factor textures, error report")

@@ -59,8 +59,8 @@ from . import probe_lights
 from .envmap import convert, get_layout
 from .errors import BakeError
 
-__all__ = ["from_world", "resolves", "rotation_of", "split_for", "digest", "REACH_SPREADS",
-           "REACH_TEXELS"]
+__all__ = ["from_world", "resolves", "rotation_of", "split_for", "split_latlong", "digest",
+           "REACH_SPREADS", "REACH_TEXELS"]
 
 #: A world texel belongs to a light within this many of the light's spreads ...
 REACH_SPREADS = 2.0
@@ -155,6 +155,27 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
                                       spread, light.tile, light.threshold, math.sqrt(own)))
         flat[bright[texels]] = (radiance[texels] * scale[:, None]).astype(np.float32)
     return residual, out
+
+
+def split_latlong(image, ax, ay=None):
+    """(residual (H, 2H, 3) float32, lights) of a lat-long ``image`` that is itself the
+    world (the command line's HDRI, ``python -m bake sample``): the lights
+    bake.probe_lights.extract_for takes from it, re-measured on the same texels by
+    :func:`from_world`, so that each light's extent includes its texels' bilinear
+    tent as Cycles' Linear lookup of the image spreads them. The reach's texel is
+    the image's largest, pi / H at the equator (a cube of 2H / pi px faces).
+
+    Measured (runtime sampling with 19 samples, a 32^2 px sphere, against the
+    integral over the image's bilinear reconstruction; extract_for's lights
+    against these): a 64-row sky with a 3-degree sun at about 1000x the sky
+    0.073 -> 0.023 (GGX 0.2), 0.070 -> 0.025 (GGX 0.3, anisotropy 0.8); the
+    bundled 1024-row HDRIs at GGX 0.2-0.45 level (night 0.2 0.017 -> 0.019,
+    studio 0.3 0.012 -> 0.010, city 0.45 0.011 -> 0.011); at GGX 0.1 sunset
+    0.031 -> 0.008 and city 0.030 -> 0.014 (their suns), night 0.022 -> 0.029
+    and interior 0.026 -> 0.031 (one-texel lamps)."""
+    image = np.asarray(image)
+    _, lights = probe_lights.extract_for(image[..., :3], "latlong", ax, ay)
+    return from_world(lights, image, 2.0 * image.shape[0] / math.pi)
 
 
 def digest(world) -> str:
