@@ -44,7 +44,14 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+#: Modes of the textures Glossy bakes that are not environment maps.
+BAKED_TEXTURES = ("atlas_runtime", "atlas_levels")
+
+
 def _guess_layout(shape, meta, path):
+    if meta.get("mode") in BAKED_TEXTURES:
+        raise BakeError(f"{path}: a texture Glossy baked ({meta['mode']}), not an "
+                        f"environment map; give the probe or HDRI it was baked from")
     declared = meta.get("layout")
     if declared in LAYOUTS:
         return declared
@@ -314,9 +321,10 @@ def cmd_sample(args):
                            "hybrid_map": map_path.name})
         reason += f"; the Hybrid's 3D map: {baked.meta['size_reason']}"
     half = storage_precision(atlas) == "half"
-    atlas_meta.update(_meta(args, layout, image.shape[:2], {
-        "mode": atlas_meta["mode"], "size": rows, "size_reason": reason,
-        "precision": "half" if half else "float32"}))
+    atlas_meta.update({
+        "generator": f"glossy-bake {__version__}", "source": Path(args.input).name,
+        "probe": {"layout": layout, "shape": list(image.shape[:2])}, "size": rows,
+        "size_reason": reason, "precision": "half" if half else "float32"})
     text = json.dumps(atlas_meta, indent=1, sort_keys=True)
     with outputs.Staged() as staged:
         staged.add(output, lambda target: exr.write(target, atlas, atlas_meta, half=half))

@@ -61,6 +61,7 @@ def test_an_anisotropic_lobe_is_baked_with_its_sun_shaded_exactly(sunny, tmp_pat
     atlas, meta = exr.read(out)
     assert meta == json.loads(out.with_suffix(".json").read_text())
     assert meta["mode"] == sampling_runtime.MODE and meta["slice_height"] == 64
+    assert meta["probe"] == {"layout": "latlong", "shape": [64, 128]}
     assert min(meta["ax"], meta["ay"]) < 0.2 * max(meta["ax"], meta["ay"]) and meta["lights"]
     # The file is what the library packs from the same residual, stored as half
     # floats (no texel is above 65504 once the sun is a light), bit for bit.
@@ -198,3 +199,15 @@ def test_prefilter_points_an_anisotropic_lobe_to_sample(sunny, tmp_path):
                       "-o", out, "-q")
     assert result.returncode == 2 and "python -m bake sample" in result.stderr
     assert not out.exists()
+
+
+def test_a_baked_texture_is_not_taken_for_a_probe(hybrid_files, tmp_path):
+    texture = hybrid_files[0]
+    assert exr.read_header(texture) and "layout" not in exr.read(texture)[1]
+    for command in (["sample", texture, "--brdf", "ggx:roughness=0.3"],
+                    ["convert", texture, "--to", "cube", "--size", "8"]):
+        out = tmp_path / "x.exr"
+        result = run_bake(*command, "-o", out, "-q")
+        lines = result.stderr.strip().splitlines()
+        assert result.returncode == 2 and len(lines) == 1, result.stderr
+        assert "a texture Glossy baked" in lines[0] and not out.exists()
