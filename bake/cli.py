@@ -337,14 +337,19 @@ def cmd_sample(args):
 
 
 def _pixels(args):
-    """(normals (H, W, 3), views (H, W, 3), mask (H, W), where) of ``--sphere SIZE`` or
-    ``--buffers EXR`` (its 'normal' layer and a 'view' layer, or 'position' and
-    ``--camera``), unit vectors; ``where``: what the output's header records."""
+    """(normals (H, W, 3), views (H, W, 3), mask (H, W), where, tangents) of ``--sphere
+    SIZE`` or ``--buffers EXR`` (its 'normal' layer and a 'view' layer, or 'position'
+    and ``--camera``; a 'tangent' layer orients anisotropic lobes, else
+    bake.reference's hint frame), unit vectors (tangents as given, or None);
+    ``where``: what the output's header records."""
     from . import reference
 
+    tangents = None
     if args.buffers:
         layers, _ = exr.read(args.buffers, layers=True)
         normals = reference.vector_layer(layers, "normal", args.buffers)
+        if reference.has_layer(layers, "tangent"):
+            tangents = reference.vector_layer(layers, "tangent", args.buffers)
         if reference.has_layer(layers, "view"):
             views = reference.vector_layer(layers, "view", args.buffers)
         else:
@@ -357,13 +362,15 @@ def _pixels(args):
         mask = (length > 0.5) & (np.linalg.norm(views, axis=-1) > 0)
         normals = normals / np.where(length > 0, length, 1.0)[..., None]
         views = views / np.maximum(np.linalg.norm(views, axis=-1, keepdims=True), 1e-30)
-        where = {"buffers": Path(args.buffers).name, "camera": args.camera}
+        where = {"buffers": Path(args.buffers).name, "camera": args.camera,
+                 "tangents": "the buffers' tangent layer" if tangents is not None else
+                 "bake.reference's hint frame"}
     else:
         normals, views, mask = reference.sphere_buffers(args.sphere, args.distance, args.lens)
         where = {"sphere": args.sphere, "distance": args.distance, "lens_mm": args.lens}
     if not mask.any():
         raise BakeError("no pixel to render: the buffers hold no surface")
-    return normals, views, mask, where
+    return normals, views, mask, where, tangents
 
 
 def _rgba(mask, radiance):
@@ -381,10 +388,11 @@ def cmd_reference(args):
     model = brdf.parse(args.brdf)
     probe, meta = _read_rgb(args.input, args.sanitize)
     layout = args.source or _guess_layout(probe.shape[:2], meta, args.input)
-    normals, views, mask, where = _pixels(args)
+    normals, views, mask, where, tangents = _pixels(args)
     pixels = int(mask.sum())
     progress = None if args.quiet else LinePrinter()
     radiance = reference.render(model, probe, layout, normals[mask], views[mask],
+                                tangents=None if tangents is None else tangents[mask],
                                 tolerance=args.tolerance, progress=progress,
                                 reconstruction=args.reconstruction)
     exr.write(output, _rgba(mask, radiance), _meta(args, layout, probe.shape[:2], {
@@ -424,15 +432,16 @@ def cmd_lookup(args):
     if map_path is not None and "blend_mu" not in meta:
         raise BakeError(f"{args.input}: the runtime texture has no Hybrid weights; bake it "
                         f"with `python -m bake sample --map`")
-    normals, views, mask, where = _pixels(args)
+    normals, views, mask, where, tangents = _pixels(args)
     n, v = normals[mask], views[mask]
+    t = None if tangents is None else tangents[mask]
     if runtime:
         atlas, _ = exr.read(args.input)
         if map_path is not None:
-            radiance = hybrid.shade(prefilter.load(map_path), atlas, meta, n, v)
+            radiance = hybrid.shade(prefilter.load(map_path), atlas, meta, n, v, t)
             what = f"the Hybrid of {Path(args.input).name} and {Path(map_path).name}"
         else:
-            radiance = sampling_runtime.shade(atlas, meta, n, v)
+            radiance = sampling_runtime.shade(atlas, meta, n, v, t)
             what = f"runtime sampling of {Path(args.input).name}"
     else:
         radiance = prefilter.load(args.input).shade(n, v)
@@ -627,8 +636,9 @@ def _add_pixel_options(p):
                        help="an analytic unit sphere, SIZE x SIZE pixels, seen from "
                             "(0, -distance, 0) along +Y")
     where.add_argument("--buffers", metavar="EXR",
-                       help="render passes: a 'normal' layer (world space) and a 'view' layer "
-                            "(surface to viewer) or a 'position' layer with --camera")
+                       help="render passes: a 'normal' layer (world space), a 'view' layer "
+                            "(surface to viewer) or a 'position' layer with --camera, and "
+                            "optionally a 'tangent' layer (anisotropic lobes)")
     p.add_argument("--camera", type=_vector, help="camera position X,Y,Z (with 'position')")
     p.add_argument("--distance", type=float, default=6.0, help="sphere: camera distance")
     p.add_argument("--lens", type=float, default=90.0, help="sphere: focal length (mm, 36 mm "
