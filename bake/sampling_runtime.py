@@ -176,11 +176,15 @@ def check(spec, budget=19):
     BakeError (a BRDF with no GGX or Cycles' Beckmann lobe, a budget no pattern
     gives)."""
     model = brdf.parse(spec)
-    lobe = lobe_of(model)
+    nodes_sample = ("runtime sampling in shader nodes samples GGX lobes (ggx, "
+                    "principled_metallic, ggx_multiscatter, principled without a coat) and "
+                    "Cycles' Beckmann")
+    try:
+        lobe = lobe_of(model)
+    except BakeError:  # bake.sampling's message names NumPy's samplers, more than the nodes'
+        raise BakeError(f"{nodes_sample}; there is no sampler for {model.spec}") from None
     if lobe.kind not in KINDS or (lobe.kind == "beckmann" and model.name != "beckmann"):
-        raise BakeError(f"runtime sampling in shader nodes samples GGX lobes (ggx, "
-                        f"principled_metallic, ggx_multiscatter) and Cycles' Beckmann, not "
-                        f"{model.spec} (its {lobe.kind} lobe)")
+        raise BakeError(f"{nodes_sample}, not {model.spec} (its {lobe.kind} lobe)")
     return lobe, pattern_for_budget(budget, lobe.anisotropic)
 
 
