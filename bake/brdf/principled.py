@@ -46,8 +46,11 @@ sheen, thin film, emission, alpha, a diffuse roughness above 0 (Cycles'
 Oren-Nayar) and a coat normal other than the normal.
 """
 
+import functools
+
 import numpy as np
 
+from ..envmap.grid import gauss_legendre
 from . import fresnel
 from .base import BRDF, register
 from .microfacet import ggx_d, ggx_lambda, reflect_about, sample_ggx_vndf
@@ -61,11 +64,12 @@ _MU = np.linspace(0.0, 1.0, 65)[1:]  # 64 nodes, mu = 1/64 ... 1
 _TABLES: dict = {}
 
 
+@functools.lru_cache(maxsize=256)
 def dielectric_hemispherical_average(eta: float) -> float:
-    """Fss = 2 int_0^1 F_dielectric(mu, eta) mu dmu (64-node Gauss-Legendre)."""
-    x, w = np.polynomial.legendre.leggauss(64)
-    mu = 0.5 * (x + 1.0)
-    return float(np.sum(w * 0.5 * 2.0 * fresnel.dielectric(mu, eta) * mu))
+    """Fss = 2 int_0^1 F_dielectric(mu, eta) mu dmu (64-node Gauss-Legendre; cached per
+    eta, as every evaluation of a Principled BRDF asks for it)."""
+    mu, w = gauss_legendre(64)
+    return float(2.0 * np.sum(w * fresnel.dielectric(mu, float(eta)) * mu))
 
 
 def _blend_factor(cos_hv, eta):

@@ -8,6 +8,8 @@ centres at integers within a face; image coordinates (x, y) run over
 [j, j + 1] x [i, i + 1] and y growing downwards (row 0 at the top).
 """
 
+import functools
+
 import numpy as np
 
 __all__ = ["bilinear", "gauss_legendre", "disk_clipped_integral", "gather_padded"]
@@ -70,10 +72,14 @@ def _fill_corners(padded: np.ndarray, missing: np.ndarray) -> np.ndarray:
     return padded
 
 
+@functools.lru_cache(maxsize=32)
 def gauss_legendre(n: int):
-    """Nodes and weights of n-point Gauss-Legendre quadrature on [0, 1]."""
+    """Nodes and weights (n,) each, read-only, of n-point Gauss-Legendre quadrature on
+    [0, 1] (cached: numpy's leggauss solves an eigenvalue problem each call)."""
     nodes, weights = np.polynomial.legendre.leggauss(n)
-    return 0.5 * (nodes + 1.0), 0.5 * weights
+    nodes, weights = 0.5 * (nodes + 1.0), 0.5 * weights
+    nodes.flags.writeable = weights.flags.writeable = False
+    return nodes, weights
 
 
 def disk_clipped_integral(edges: np.ndarray, inner, order: int = 12) -> np.ndarray:
