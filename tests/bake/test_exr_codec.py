@@ -20,8 +20,9 @@ def _planes(rng, height=37, width=29):
 
 
 @pytest.mark.parametrize("compression", ["zip", "none"])
-def test_openexr_package_reads_codec_files_exactly(tmp_path, compression):
-    planes = _planes(np.random.default_rng(1))
+@pytest.mark.parametrize("height", [37, 301])  # 301: ZIP chunks deflated on two threads
+def test_openexr_package_reads_codec_files_exactly(tmp_path, compression, height):
+    planes = _planes(np.random.default_rng(1), height=height)
     path = tmp_path / "codec.exr"
     path.write_bytes(exr_codec.encode(planes, {"glossy": '{"k": 1}'}, compression))
     with OpenEXR.File(str(path), separate_channels=True) as handle:

@@ -1,0 +1,133 @@
+"""glossy.bake_materials as a user runs it: time per material, and eight at once (issue 10).
+
+benchmarks/prefilter.py times the NumPy steps of a bake (``bake_like_blender``,
+GGX specs). A user's bake goes through the operator: the material's own node
+tree read as a BRDF (From Material, the default: a Principled BSDF is the
+``principled`` model, slower to evaluate than plain GGX), the default method
+(Auto: the Hybrid for these lobes, so also probe lights, the runtime level
+stack and albedo table), the world's lights re-measured on its own image, and
+the files written by Glossy's NumPy OpenEXR codec (what runs inside
+Blender). This script times exactly that, headless, each single bake in a
+fresh Python process (every cache cold), on one sphere with a World Only probe
+of 128 px faces in sunset.exr:
+
+- one Principled BSDF, Metallic 1, Roughness 0.05 / 0.1 / 0.3 / 0.6 / 1.0, and
+  Blender's default Principled BSDF (a dielectric with its diffuse part,
+  Roughness 0.5): the issue's "under 3 s" per material;
+- eight materials on the sphere baked by one operator call (Principled metal
+  at Roughness 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8 and a Glossy BSDF with
+  Beckmann 0.4), against the mean of the same eight baked one by one cold:
+  the issue's "8 materials < 3x one".
+
+    .venv/bin/python benchmarks/operator_bake.py [--hdri sunset.exr] [--face 128]
+
+Times are wall-clock seconds of the operator call alone (the capture before it
+is not counted); no timing is asserted anywhere.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tools.bpy_wheel import studio_lights  # noqa: E402
+
+SCENE = r'''
+import json, sys, time
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+import _checkout  # noqa
+import bpy
+import glossy
+from _operators import run, world_probe, shader_material
+from glossy.glossy_addon.scenes import environment_world
+
+hdri, work, face = sys.argv[2], Path(sys.argv[3]), int(sys.argv[4])
+materials = json.loads(sys.argv[5])
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glossy.register()
+scene = bpy.context.scene
+bpy.ops.wm.save_as_mainfile(filepath=str(work / "scene.blend"))
+environment_world(scene, hdri)
+bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
+sphere = bpy.context.object
+world_probe(sphere, face)
+for index, (shader, roughness, metallic) in enumerate(materials):
+    material, tree, node = shader_material(f"M{index}", shader)
+    node.inputs["Roughness"].default_value = roughness
+    if shader == "ShaderNodeBsdfPrincipled":
+        node.inputs["Metallic"].default_value = metallic
+    else:
+        node.distribution = "BECKMANN"
+    sphere.data.materials.append(material)
+capture = run(bpy.ops.glossy.capture_probes)
+start = time.perf_counter()
+outcome = run(bpy.ops.glossy.bake_materials)
+elapsed = time.perf_counter() - start
+methods = [slot.material.glossy.method_used() for slot in sphere.material_slots]
+print(json.dumps({"seconds": elapsed, "outcome": [capture, outcome], "methods": methods}))
+'''
+
+PRINCIPLED = "ShaderNodeBsdfPrincipled"
+SINGLES = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.3, 0.6, 1.0)] + [(PRINCIPLED, 0.5, 0.0)]
+EIGHT = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)]
+EIGHT.append(("ShaderNodeBsdfGlossy", 0.4, 0.0))
+
+
+def label(material):
+    shader, roughness, metallic = material
+    if shader != PRINCIPLED:
+        return f"Glossy BSDF, Beckmann {roughness:g}"
+    kind = "metal" if metallic else "dielectric + diffuse"
+    return f"Principled {kind}, Roughness {roughness:g}"
+
+
+def bake(materials, hdri, face):
+    """(seconds, methods) of one glossy.bake_materials call in a fresh process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / "scene.py"
+        script.write_text(SCENE)
+        result = subprocess.run(
+            [sys.executable, str(script), str(ROOT / "tests" / "blender" / "scripts"),
+             str(studio_lights() / hdri), tmp, str(face), json.dumps(materials)],
+            capture_output=True, text=True)
+        rows = [line for line in result.stdout.splitlines() if line.startswith("{")]
+        if result.returncode or not rows:
+            sys.exit(f"the bake failed (exit {result.returncode}): {result.stderr[-2000:]}")
+        row = json.loads(rows[-1])
+        for outcome, message in row["outcome"]:
+            if outcome != ["FINISHED"]:
+                sys.exit(f"an operator did not finish: {outcome} {message}")
+        return row["seconds"], row["methods"]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--hdri", default="sunset.exr")
+    parser.add_argument("--face", type=int, default=128, help="probe face px (Fixed)")
+    args = parser.parse_args()
+    print(f"glossy.bake_materials, one sphere, World Only probe of {args.face} px faces in "
+          f"{args.hdri}, caches cold (a fresh process per call):", flush=True)
+    for material in SINGLES:
+        seconds, methods = bake([material], args.hdri, args.face)
+        print(f"  {label(material):40s} {seconds:6.2f} s  ({methods[0]}; target < 3 s)",
+              flush=True)
+    singles = []
+    for material in EIGHT:
+        singles.append(bake([material], args.hdri, args.face)[0])
+    together, methods = bake(EIGHT, args.hdri, args.face)
+    mean = sum(singles) / len(singles)
+    print(f"  eight materials (Principled metal 0.05-0.8, Glossy BSDF Beckmann 0.4; "
+          f"methods {', '.join(sorted(set(methods)))}) in one call: {together:.2f} s, against "
+          f"{mean:.2f} s for the mean single bake of the same eight "
+          f"({' / '.join(f'{s:.2f}' for s in singles)}): ratio {together / mean:.1f} "
+          f"(target < 3)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
