@@ -22,7 +22,7 @@ from ..errors import BakeError
 from ..progress import Progress, report
 from .layout import Layout
 
-__all__ = ["convert", "resample", "supersampling"]
+__all__ = ["convert", "convert_texels", "resample", "supersampling"]
 
 #: Sub-samples evaluated per work item (bounds memory to a few hundred MB).
 _CHUNK_SAMPLES = 1 << 18
@@ -110,6 +110,37 @@ def convert(image, src, dst, size, *, samples: int | None = None, progress: Prog
     node, bake.world_mapping); None looks up the same direction.
     Returns a float32 (H', W', C) image; radiance is never clamped.
     """
+    sample, target, shape, k, channels = _plan(image, src, dst, size, samples, transform)
+    return resample(sample, target, shape, k, channels, progress)
+
+
+def convert_texels(image, src, dst, size, ys, xs, *, samples: int | None = None,
+                   transform=None):
+    """(N, C) float32: what :func:`convert` (same arguments) gives at target texels
+    (ys[i], xs[i]) (integer row and column arrays (N,)), computed for those
+    texels alone: the same prereduction, sub-samples, Jacobian weights and
+    lookups, so the values equal convert's to float32 rounding (the sums run
+    in another order). For updating a few texels of a converted image after a
+    local change of the source."""
+    sample, target, shape, k, channels = _plan(image, src, dst, size, samples, transform)
+    ys = np.asarray(ys, dtype=np.intp).reshape(-1)
+    xs = np.asarray(xs, dtype=np.intp).reshape(-1)
+    out = np.empty((len(ys), channels), np.float32)
+    offsets = (np.arange(k) + 0.5) / k
+    per_chunk = max(1, _CHUNK_SAMPLES // (k * k))
+    for start in range(0, len(ys), per_chunk):
+        y = ys[start:start + per_chunk, None, None] + offsets[None, :, None]  # (n, k, 1)
+        x = xs[start:start + per_chunk, None, None] + offsets[None, None, :]  # (n, 1, k)
+        x, y = np.broadcast_arrays(x, y)
+        weights = np.broadcast_to(target.jacobian(x, y, shape), x.shape).astype(np.float32)
+        values = sample(target.directions(x, y, shape)).astype(np.float32, copy=False)
+        total = np.einsum("abc,abcd->ad", weights, values)
+        out[start:start + per_chunk] = total / weights.sum(axis=(1, 2))[:, None]
+    return out
+
+
+def _plan(image, src, dst, size, samples, transform):
+    """(sample, target layout, target shape, k, channels) of a conversion."""
     from . import get_layout
 
     source, target = get_layout(src), get_layout(dst)
@@ -128,4 +159,4 @@ def convert(image, src, dst, size, *, samples: int | None = None, progress: Prog
 
         def sample(directions):
             return lookup(transform(directions))
-    return resample(sample, target, shape, int(k), image.shape[2], progress)
+    return sample, target, shape, int(k), image.shape[2]
