@@ -115,7 +115,7 @@ def main():
           f"{args.hdri}, caches cold (a fresh process per call):", flush=True)
     for material in SINGLES:
         seconds, methods = bake([material], args.hdri, args.face)
-        print(f"  {label(material):40s} {seconds:6.2f} s  ({methods[0]}; target < 3 s)",
+        print(f"  {label(material):46s} {seconds:6.2f} s  ({methods[0]}; target < 3 s)",
               flush=True)
     singles = []
     for material in EIGHT:
