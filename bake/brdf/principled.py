@@ -197,8 +197,15 @@ class Principled(BRDF):
     # --- pieces --------------------------------------------------------------------------
     @staticmethod
     def _table(table, mu):
-        nodes, e, s, _ = table
-        return np.interp(mu, nodes, e), np.interp(mu, nodes, s)
+        """(E(mu), s(mu)) (...) each: linear interpolation between the table's nodes
+        mu = 1/64 ... 1 (uniform: an index, not np.interp's search; the first
+        node's values below it), as np.interp gives to rounding."""
+        _, e, s, _ = table
+        t = np.asarray(mu, dtype=np.float64) * (len(e)) - 1.0
+        index = np.clip(np.floor(t), 0, len(e) - 2).astype(np.intp)
+        frac = np.clip(t - index, 0.0, 1.0)
+        return (e[index] + (e[index + 1] - e[index]) * frac,
+                s[index] + (s[index + 1] - s[index]) * frac)
 
     @staticmethod
     def _fms(fss, e_avg):
@@ -220,9 +227,10 @@ class Principled(BRDF):
         s = np.clip((fss_real - f0) / max(1.0 - f0, 1e-12), 0.0, 1.0)
         return self.spec_f0 + (1.0 - self.spec_f0) * s
 
-    def _energy(self, mu, table, fss, always=False):
-        """(multiplier of the single-scatter lobe, E + Fms (1 - E) or 1), (..., 3)."""
-        e, _ = self._table(table, mu)
+    def _energy(self, mu, table, fss, always=False, looked=None):
+        """(multiplier of the single-scatter lobe, E + Fms (1 - E) or 1), (..., 3).
+        looked: ``self._table(table, mu)`` when the caller has it."""
+        e, _ = looked if looked is not None else self._table(table, mu)
         e = np.maximum(e, 1e-6)[..., None]
         if not (self.multiscatter or always):
             one = np.ones(e.shape[:-1] + (3,))
@@ -230,16 +238,18 @@ class Principled(BRDF):
         fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
         return 1.0 + fms * (1.0 - e) / e, e + fms * (1.0 - e)
 
-    def lower_weights(self, mu):
+    def lower_weights(self, mu, main=None, coat=None):
         """(weight under the coat (..., 3), weight of the diffuse layer (..., 3)) at
         view cosines ``mu`` (...): the W of the module docstring before the metal
-        and at the diffuse layer."""
+        and at the diffuse layer. main, coat: ``self._table`` of the main and coat
+        tables at these mu, when the caller has them."""
         mu = np.clip(np.asarray(mu, dtype=np.float64), 0.0, 1.0)
         weight = np.ones(mu.shape + (3,))
         if self.coat > 0.0:
-            _, s = self._table(self._coat, mu)
+            coat = coat if coat is not None else self._table(self._coat, mu)
+            _, s = coat
             fss = dielectric_hemispherical_average(self.coat_ior)
-            _, darkening = self._energy(mu, self._coat, fss, always=True)
+            _, darkening = self._energy(mu, self._coat, fss, always=True, looked=coat)
             f0 = float(fresnel.f0_from_ior(self.coat_ior))
             albedo = self.coat * darkening * (f0 + (1.0 - f0) * s)[..., None]
             weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
@@ -249,9 +259,10 @@ class Principled(BRDF):
                 weight = weight * (1.0 + self.coat * (tinted - 1.0))
         under_coat = weight
         weight = weight * (1.0 - self.metallic)
-        if self.eta != 1.0:
-            _, s = self._table(self._main, mu)
-            _, darkening = self._energy(mu, self._main, self._spec_fss())
+        if self.eta != 1.0 and self.metallic < 1.0:  # (a whole metal: the weight is 0)
+            main = main if main is not None else self._table(self._main, mu)
+            _, s = main
+            _, darkening = self._energy(mu, self._main, self._spec_fss(), looked=main)
             albedo = darkening * (self.spec_f0 + (1.0 - self.spec_f0) * s[..., None])
             weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
         return under_coat, weight
@@ -262,12 +273,14 @@ class Principled(BRDF):
 
     def _f(self, wi, wo):
         mu = np.clip(wo[..., 2], 0.0, 1.0)
-        under_coat, diffuse_weight = self.lower_weights(mu)
+        main = self._table(self._main, mu)  # looked up once for every term below
+        coat = self._table(self._coat, mu) if self.coat > 0.0 else None
+        under_coat, diffuse_weight = self.lower_weights(mu, main, coat)
         total = np.zeros(np.broadcast_shapes(wi.shape, wo.shape)[:-1] + (3,))
         if self.coat > 0.0:
             lobe, cos_hv = self._ggx(wi, wo, self.coat_alpha, self.coat_alpha)
             fss = dielectric_hemispherical_average(self.coat_ior)
-            energy, _ = self._energy(mu, self._coat, fss, always=True)
+            energy, _ = self._energy(mu, self._coat, fss, always=True, looked=coat)
             total = total + self.coat * (lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
                 ..., None] * energy
         lw, lo = rotate_z(wi, -self.angle), rotate_z(wo, -self.angle)
@@ -276,12 +289,12 @@ class Principled(BRDF):
         if self.metallic > 0.0:
             f82 = np.clip(fresnel.schlick(c[..., 0], self.base) - self.b82 * c * (1.0 - c) ** 6,
                           0.0, 1.0)
-            energy, _ = self._energy(mu, self._main, self._metal_fss())
+            energy, _ = self._energy(mu, self._main, self._metal_fss(), looked=main)
             total = total + under_coat * self.metallic * lobe[..., None] * f82 * energy
         if self.eta != 1.0:
             blend = _blend_factor(c[..., 0], self.eta)[..., None]
             f_spec = self.spec_f0 + (1.0 - self.spec_f0) * blend
-            energy, _ = self._energy(mu, self._main, self._spec_fss())
+            energy, _ = self._energy(mu, self._main, self._spec_fss(), looked=main)
             total = total + under_coat * (1.0 - self.metallic) * lobe[..., None] * f_spec * \
                 energy
         if self.params["diffuse"] == 1.0:
