@@ -267,3 +267,29 @@ def test_resampling_rows_is_bilinear_in_latitude_and_periodic_longitude(height, 
     expected = np.stack([[np.interp(phi_out, phi_in, by_rows[i, :, c], period=2 * np.pi)
                           for c in range(3)] for i in range(rows)]).transpose(0, 2, 1)
     np.testing.assert_allclose(ours, expected, atol=1e-6)
+
+
+def test_a_principled_brdf_solves_no_quadrature_per_evaluation(monkeypatch):
+    """The Principled BSDF's Fresnel averages come from a cached 64-node Gauss-Legendre
+    rule: evaluating it again (another material of the same IOR included) calls
+    numpy's leggauss, an eigenvalue problem, not once (it did on every f(), 3.6 s of
+    a From Material bake of eight materials); its values are the rule's own."""
+    from bake import brdf
+    from bake.brdf import fresnel
+    from bake.brdf.principled import dielectric_hemispherical_average
+
+    spec = "principled:metallic=0.5,roughness=0.3,coat_weight=0.5,coat_ior=1.7,ior=1.45"
+    wi = np.array([[0.3, 0.1, 0.9]]) / np.linalg.norm([0.3, 0.1, 0.9])
+    wo = np.array([[-0.2, 0.4, 0.8]]) / np.linalg.norm([-0.2, 0.4, 0.8])
+    first = brdf.parse(spec).f(wi, wo)  # warms the caches
+    calls = []
+    original = np.polynomial.legendre.leggauss
+    monkeypatch.setattr(np.polynomial.legendre, "leggauss",
+                        lambda n: calls.append(n) or original(n))
+    again = brdf.parse(spec).f(wi, wo)
+    assert calls == []
+    np.testing.assert_array_equal(again, first)
+    nodes, weights = original(64)
+    mu = 0.5 * (nodes + 1.0)
+    assert dielectric_hemispherical_average(1.45) == pytest.approx(
+        float(np.sum(weights * fresnel.dielectric(mu, 1.45) * mu)), rel=1e-13)
