@@ -30,6 +30,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/envmap.py
 	$(PY) benchmarks/brdf.py
 	$(PY) benchmarks/prefilter.py
+	$(PY) benchmarks/operator_bake.py
 	$(PY) benchmarks/exr_codec.py
 	$(PY) benchmarks/validate.py
 	$(PY) benchmarks/separable.py
