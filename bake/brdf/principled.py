@@ -198,10 +198,11 @@ class Principled(BRDF):
     @staticmethod
     def _table(table, mu):
         """(E(mu), s(mu)) (...) each: linear interpolation between the table's nodes
-        mu = 1/64 ... 1 (uniform: an index, not np.interp's search; the first
-        node's values below it), as np.interp gives to rounding."""
-        _, e, s, _ = table
-        t = np.asarray(mu, dtype=np.float64) * (len(e)) - 1.0
+        (uniform, mu = 1/64 ... 1: an index, not np.interp's search; the end
+        nodes' values beyond them), as np.interp gives to rounding."""
+        nodes, e, s, _ = table
+        step = (nodes[-1] - nodes[0]) / (len(nodes) - 1)
+        t = (np.asarray(mu, dtype=np.float64) - nodes[0]) / step
         index = np.clip(np.floor(t), 0, len(e) - 2).astype(np.intp)
         frac = np.clip(t - index, 0.0, 1.0)
         return (e[index] + (e[index + 1] - e[index]) * frac,
