@@ -127,8 +127,11 @@ def convert_texels(image, src, dst, size, ys, xs, *, samples: int | None = None,
     xs = np.asarray(xs, dtype=np.intp).reshape(-1)
     out = np.empty((len(ys), channels), np.float32)
     offsets = (np.arange(k) + 0.5) / k
-    per_chunk = max(1, _CHUNK_SAMPLES // (k * k))
-    for start in range(0, len(ys), per_chunk):
+    # Chunks of texels (a few hundred thousand sub-samples each, at least two
+    # chunks for two cores once there are enough texels).
+    per_chunk = max(1, min(_CHUNK_SAMPLES // (k * k), -(-len(ys) // 2)))
+
+    def work(start):
         y = ys[start:start + per_chunk, None, None] + offsets[None, :, None]  # (n, k, 1)
         x = xs[start:start + per_chunk, None, None] + offsets[None, None, :]  # (n, 1, k)
         x, y = np.broadcast_arrays(x, y)
@@ -136,6 +139,10 @@ def convert_texels(image, src, dst, size, ys, xs, *, samples: int | None = None,
         values = sample(target.directions(x, y, shape)).astype(np.float32, copy=False)
         total = np.einsum("abc,abcd->ad", weights, values)
         out[start:start + per_chunk] = total / weights.sum(axis=(1, 2))[:, None]
+
+    starts = range(0, len(ys), per_chunk)
+    with ThreadPoolExecutor(max_workers=max(1, min(2, os.cpu_count() or 1, len(starts)))) as pool:
+        list(pool.map(work, starts))
     return out
 
 
