@@ -20,6 +20,7 @@ of 128 px faces in sunset.exr:
   the issue's "8 materials < 3x one".
 
     .venv/bin/python benchmarks/operator_bake.py [--hdri sunset.exr] [--face 128]
+        [--singles-only]
 
 Times are wall-clock seconds of the operator call alone (the capture before it
 is not counted); no timing is asserted anywhere.
@@ -110,6 +111,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--hdri", default="sunset.exr")
     parser.add_argument("--face", type=int, default=128, help="probe face px (Fixed)")
+    parser.add_argument("--singles-only", action="store_true",
+                        help="the single bakes only (not the eight)")
     args = parser.parse_args()
     print(f"glossy.bake_materials, one sphere, World Only probe of {args.face} px faces in "
           f"{args.hdri}, caches cold (a fresh process per call):", flush=True)
@@ -117,6 +120,8 @@ def main():
         seconds, methods = bake([material], args.hdri, args.face)
         print(f"  {label(material):46s} {seconds:6.2f} s  ({methods[0]}; target < 3 s)",
               flush=True)
+    if args.singles_only:
+        return
     singles = []
     for material in EIGHT:
         singles.append(bake([material], args.hdri, args.face)[0])
