@@ -199,8 +199,9 @@ def digest(world) -> str:
     probe records it at capture, and the bake measures lights on the world's
     texels only when the scene's world still holds that image."""
     image = np.ascontiguousarray(world, dtype=np.float32)
-    return hashlib.blake2b(repr(image.shape).encode() + image.tobytes(),
-                           digest_size=16).hexdigest()
+    hasher = hashlib.blake2b(repr(image.shape).encode(), digest_size=16)
+    hasher.update(memoryview(image).cast("B"))  # the texels' bytes, not a copy of them
+    return hasher.hexdigest()
 
 
 def rotation_of(mapping):

@@ -88,6 +88,12 @@ def label(material):
     return f"Principled {kind}, Roughness {roughness:g}"
 
 
+def hdri_path(hdri):
+    """A bundled HDRI's name, or a path to any lat-long EXR."""
+    given = Path(hdri)
+    return given if given.is_file() else studio_lights() / hdri
+
+
 def bake(materials, hdri, face):
     """(seconds, methods) of one glossy.bake_materials call in a fresh process."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -95,7 +101,7 @@ def bake(materials, hdri, face):
         script.write_text(SCENE)
         result = subprocess.run(
             [sys.executable, str(script), str(ROOT / "tests" / "blender" / "scripts"),
-             str(studio_lights() / hdri), tmp, str(face), json.dumps(materials)],
+             str(hdri_path(hdri)), tmp, str(face), json.dumps(materials)],
             capture_output=True, text=True)
         rows = [line for line in result.stdout.splitlines() if line.startswith("{")]
         if result.returncode or not rows:
@@ -109,7 +115,8 @@ def bake(materials, hdri, face):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--hdri", default="sunset.exr")
+    parser.add_argument("--hdri", default="sunset.exr",
+                        help="a bundled HDRI's name or a lat-long EXR's path")
     parser.add_argument("--face", type=int, default=128, help="probe face px (Fixed)")
     parser.add_argument("--singles-only", action="store_true",
                         help="the single bakes only (not the eight)")
