@@ -143,19 +143,19 @@ def runtime_height(settings, probe, layout) -> tuple:
 def _light_steps(probe, layout, ax, ay, world=None):
     """bake.world_lights.split_for as steps (no bpy: runs on a worker thread, so
     the UI stays responsive: a probe of 1024 px faces takes about 5 s here): one
-    message, then (residual probe, lights, why). ``world``: (image, Mapping) of
-    a World Only probe's world (:func:`world_of`), or None."""
+    message, then (residual probe, lights, why). ``world``: (image, Mapping,
+    digest) of a World Only probe's world (:func:`world_of`), or None."""
     yield 0.0, "taking the probe's small bright lights out (Probe Lights)"
-    image, mapping = world if world is not None else (None, None)
-    return world_lights.split_for(probe, layout, ax, ay, image, mapping)
+    image, mapping, digest = world if world is not None else (None, None, None)
+    return world_lights.split_for(probe, layout, ax, ay, image, mapping, world_digest=digest)
 
 
 def world_of(scene, meta):
-    """(pixels (H, 2H, 3) float32, bake.world_mapping.WorldMapping) of the scene's
-    world when ``meta`` is a World Only probe's that was resampled from that very
-    image through that Mapping and Strength (its recorded world_digest and
-    world_mapping), so the bake may measure the probe's lights on the world's
-    texels (bake.world_lights); else (None, why not)."""
+    """(pixels (H, 2H, 3) float32, bake.world_mapping.WorldMapping, their digest) of
+    the scene's world when ``meta`` is a World Only probe's that was resampled
+    from that very image through that Mapping and Strength (its recorded
+    world_digest and world_mapping), so the bake may measure the probe's lights
+    on the world's texels (bake.world_lights); else (None, why not)."""
     if meta.get("source") != "WORLD":
         return None, None
     if "world_digest" not in meta:
@@ -169,7 +169,7 @@ def world_of(scene, meta):
     if mapping.to_meta() != meta.get("world_mapping") or \
             world_lights.digest(pixels) != meta["world_digest"]:
         return None, "the world changed since the capture: capture the probe again"
-    return (pixels, mapping), None
+    return (pixels, mapping, meta["world_digest"]), None
 
 
 def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=()):

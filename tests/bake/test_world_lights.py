@@ -161,6 +161,13 @@ def test_split_for_measures_a_turned_worlds_lights_on_its_texels():
                                                   mapping=mapping)
     assert "re-measured on the world's 256-row image" in why, why
     assert 0 < len(taken) <= len(plain)
+    # The residual cube is the whole residual world converted (split_for resamples
+    # only the texels near lights, bake.world_lights.residual_cube).
+    world_residual, _ = world_lights.from_world(plain, world, face,
+                                                world_lights.rotation_of(mapping), 2.0)
+    whole = convert(world_residual, "latlong", "cube", face,
+                    transform=mapping.texture_directions)
+    np.testing.assert_allclose(residual, whole, rtol=2e-5, atol=1e-6 * float(whole.max()))
     energy = _energy(residual, "cube") + np.sum([light.irradiance for light in taken], axis=0)
     np.testing.assert_allclose(energy, _energy(cube, "cube"), rtol=0.002)
     texel = 2.0 / face
