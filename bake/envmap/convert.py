@@ -22,7 +22,7 @@ from ..errors import BakeError
 from ..progress import Progress, report
 from .layout import Layout
 
-__all__ = ["convert", "convert_texels", "resample", "supersampling"]
+__all__ = ["convert", "convert_texels", "reduction_count", "resample", "supersampling"]
 
 #: Sub-samples evaluated per work item (bounds memory to a few hundred MB).
 _CHUNK_SAMPLES = 1 << 18
@@ -44,24 +44,43 @@ def _prereduce(source: Layout, image, target: Layout, shape):
     """Halve a cube or lat-long source by exact 2x2 solid-angle box steps while it
     has more than (MAX_SUPERSAMPLING / 1.5)^2 texels per target texel, so that
     k x k sub-samples of the reduced source still see every source texel."""
-    from .mip import reduce_level
+    from .mip import reduce_latlong, reduce_level
 
-    if source.name not in ("cube", "latlong"):
+    count = reduction_count(source, image.shape[:2], target, shape)
+    if count == 0:
         return image
+    if source.name == "latlong":  # a row's texels share one solid angle
+        row_omega = None
+        for _ in range(count):
+            image, row_omega = reduce_latlong(image, row_omega)
+        return image
+    stack = source.to_faces(image)
+    omega = source.to_faces(source.solid_angles(image.shape[:2])[..., None])[..., 0]
+    for _ in range(count):
+        stack, omega = reduce_level(stack, omega)
+    return source.from_faces(stack)
+
+
+def reduction_count(source: Layout, source_shape, target: Layout, shape) -> int:
+    """How many 2x2 box halvings :func:`convert` applies to a ``source_shape`` image in
+    layout ``source`` (cube or lat-long; others none) before resampling it to
+    ``shape`` in ``target``: while it has more than (MAX_SUPERSAMPLING / 2)^2
+    texels per target texel and its faces' sides are even."""
+    if source.name not in ("cube", "latlong"):
+        return 0
     limit = (MAX_SUPERSAMPLING / 2.0) ** 2
     target_texels = target.covered_texels(shape)
-    stack = source.to_faces(image)
-    src_shape = image.shape[:2]
-    omega = None
+    height = int(source_shape[0])  # a face's sides: N x N (cube), H x W (lat-long)
+    width = height if source.name == "cube" else int(source_shape[1])
+    src_shape = tuple(source_shape[:2])
+    count = 0
     while source.covered_texels(src_shape) / target_texels > limit:
-        height, width = stack.shape[1:3]
         if height % 2 or width % 2 or height < 2:
             break
-        if omega is None:
-            omega = source.to_faces(source.solid_angles(src_shape)[..., None])[..., 0]
-        stack, omega = reduce_level(stack, omega)
+        height, width = height // 2, width // 2
         src_shape = (src_shape[0] // 2, src_shape[1] // 2)
-    return source.from_faces(stack) if omega is not None else image
+        count += 1
+    return count
 
 
 def resample(sample, target: Layout, shape, k: int, channels: int, progress=None, dtype=np.float32):
