@@ -59,8 +59,9 @@ from . import probe_lights
 from .envmap import convert, get_layout
 from .errors import BakeError
 
-__all__ = ["from_world", "residual_cube", "resolves", "rotation_of", "split_for",
-           "split_latlong", "digest", "REACH_SPREADS", "REACH_TEXELS"]
+__all__ = ["from_world", "lowered", "reduced_world", "reduced_residual", "residual_cube",
+           "resolves", "rotation_of", "split_for", "split_latlong", "digest", "REACH_SPREADS",
+           "REACH_TEXELS"]
 
 #: A world texel belongs to a light within this many of the light's spreads ...
 REACH_SPREADS = 2.0
@@ -95,24 +96,43 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
     the result as to the probe: the residual is in the world image's own
     texels, times ``strength``). Lights are returned brightest region first as
     given, each with its irradiance (W/m^2, RGB), direction and spread
-    re-measured on the world's texels (module doc)."""
+    re-measured on the world's texels (module doc). The residual is the world
+    times ``strength`` with :func:`lowered`'s texels replaced."""
+    indices, values, out = lowered(lights, world, cube_face, to_texture, strength)
+    residual = np.array(np.asarray(world)[..., :3], dtype=np.float32) * np.float32(strength)
+    residual.reshape(-1, 3)[indices] = values
+    return residual, out
+
+
+def lowered(lights, world, cube_face, to_texture=None, strength=1.0):
+    """(indices (n,) into the world's H x 2H texels (row-major), their values in the
+    residual (n, 3) float32, lights) of :func:`from_world`, without a copy of the
+    world: the texels each light takes its excess from, lowered to the threshold
+    (every other texel of the residual is the world's times ``strength``, in
+    float32). BakeError for a world that is not (H, 2H, 3) or has non-finite
+    texels."""
     image = np.asarray(world)
     if image.ndim != 3 or image.shape[2] < 3 or image.shape[1] != 2 * image.shape[0]:
         raise BakeError(f"a lat-long world is (H, 2H, 3), not {np.shape(world)}")
-    # float32 throughout the image (an 8k x 4k world is 32M texels); float64 only
-    # for the bright texels the lights are measured on.
-    residual = np.array(image[..., :3], dtype=np.float32) * np.float32(strength)
-    if not np.all(np.isfinite(residual)):
+    # float32 throughout the image (an 8k x 4k world is 32M texels) and no copy of
+    # it; float64 only for the bright texels the lights are measured on.
+    rgb = image[..., :3] if image.dtype == np.float32 else image[..., :3].astype(np.float32)
+    scale32 = np.float32(strength)
+    luminance = (rgb @ LUMINANCE.astype(np.float32)).reshape(-1)
+    if scale32 != 1.0:
+        luminance *= scale32
+    # NaN or an infinity in any channel makes its texel's luminance non-finite.
+    if not (np.isfinite(luminance.max()) and np.isfinite(luminance.min())):
         raise BakeError("the world image has non-finite texels (NaN or infinity)")
+    none = (np.zeros(0, dtype=np.intp), np.zeros((0, 3), dtype=np.float32), [])
     if not lights:
-        return residual, []
+        return none
     thresholds = {float(light.threshold) for light in lights}
     if len(thresholds) != 1:
         raise BakeError("lights of one extraction share one threshold")
     layout = get_layout("latlong")
-    shape = residual.shape[:2]
+    shape = rgb.shape[:2]
     row_omega = layout.solid_angles((shape[0], 1))[:, 0] / shape[1]  # (H,) sr per texel
-    luminance = (residual @ LUMINANCE.astype(np.float32)).reshape(-1)
     row_sums = np.maximum(luminance, 0.0).reshape(shape).sum(axis=1, dtype=np.float64)
     mean = float(row_sums @ row_omega / (4.0 * np.pi))
     level = thresholds.pop() * mean
@@ -122,7 +142,7 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
     if to_texture is not None:  # texture directions -> world: the rotation's transpose
         directions = directions @ np.asarray(to_texture, dtype=np.float64)
     omega = row_omega[rows]
-    radiance = residual.reshape(-1, 3)[bright].astype(np.float64)
+    radiance = (rgb[rows, cols] * scale32).astype(np.float64)
     luminance = radiance @ LUMINANCE
     centres = np.array([light.direction for light in lights], dtype=np.float64)
     cube_texel = 2.0 / float(cube_face)  # the cube's largest texel's angle (rad)
@@ -138,8 +158,7 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
     inside = angle <= reach[nearest]
     local = np.flatnonzero(inside)
     nearest = nearest[inside]
-    flat = residual.reshape(-1, 3)
-    out = []
+    out, indices, values = [], [], []
     for k, light in enumerate(lights):
         texels = local[nearest == k]  # indices into the bright texels' arrays
         if len(texels) == 0:
@@ -155,8 +174,11 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
         spread = float(np.sqrt(extent + own))
         out.append(probe_lights.Light(direction, excess.sum(axis=0), float(omega[texels].sum()),
                                       spread, light.tile, light.threshold, math.sqrt(own)))
-        flat[bright[texels]] = (radiance[texels] * scale[:, None]).astype(np.float32)
-    return residual, out
+        indices.append(bright[texels])
+        values.append((radiance[texels] * scale[:, None]).astype(np.float32))
+    if not indices:
+        return none[0], none[1], out
+    return np.concatenate(indices), np.concatenate(values), out
 
 
 def split_latlong(image, ax, ay=None):
@@ -260,16 +282,30 @@ def split_for(probe, layout, ax, ay=None, world=None, mapping=None, world_digest
     key = ("world lights", world_digest, tuple(np.round(rotation, 12).ravel()), strength,
            REACH_SPREADS, REACH_TEXELS, round(float(ax), 9),
            round(float(ax if ay is None else ay), 9))
+    maps = probe_maps(probe, layout)
 
     def compute():
+        from .envmap.convert import reduction_count
+
         face = int(np.shape(probe)[0])
-        world_residual, measured = from_world(lights, world, face, rotation, strength)
+        indices, values, measured = lowered(lights, world, face, rotation, strength)
         transform = mapping.texture_directions \
             if mapping is not None and mapping.moves_directions else None
-        cube = residual_cube(probe, lights, world_residual, transform)
-        return cube, measured
+        count = reduction_count(get_layout("latlong"), world.shape[:2], get_layout("cube"),
+                                (face, 6 * face))
+        if count == 0:
+            world_residual = np.array(world[..., :3], dtype=np.float32) * np.float32(strength)
+            world_residual.reshape(-1, 3)[indices] = values
+        else:
+            # The conversion reads the world box-reduced ``count`` times: reduced once
+            # per probe and world, each lobe's residual is that with the parents of
+            # its lowered texels recomputed (no copy of the world).
+            levels = maps.kept(("reduced world", world_digest, strength, count),
+                               lambda: reduced_world(world, strength, count))
+            world_residual = reduced_residual(levels, world, strength, indices, values)
+        return residual_cube(probe, lights, world_residual, transform), measured
 
-    cube, measured = probe_maps(probe, layout).kept(key, compute)
+    cube, measured = maps.kept(key, compute)
     return cube, measured, (f"{len(measured)} of the probe's {len(lights)} lights "
                             f"re-measured on the world's {np.shape(world)[0]}-row image")
 
@@ -342,4 +378,66 @@ def residual_cube(probe, lights, world_residual, transform=None):
     out = probe.copy()
     count = len(chosen) - len(checked)
     out[ys[chosen[:count]], xs[chosen[:count]]] = values[:count]
+    return out
+
+
+def reduced_world(world, strength, count):
+    """[(level (h, 2h, 3) float32, its rows' texel solid angle (h,) float64), ...]: the
+    lat-long ``world`` (H, 2H, 3) times ``strength`` box-reduced 1 ... ``count`` times
+    by bake.envmap.mip.reduce_latlong, as bake.envmap.convert reduces a source
+    (the Strength applied after the first reduction, equal to 1e-7)."""
+    from .envmap.mip import reduce_latlong
+
+    image = np.asarray(world)
+    rgb = image[..., :3] if image.dtype == np.float32 else image[..., :3].astype(np.float32)
+    levels = []
+    level, omega = reduce_latlong(rgb)
+    if np.float32(strength) != 1.0:
+        level *= np.float32(strength)
+    levels.append((level, omega))
+    for _ in range(count - 1):
+        levels.append(reduce_latlong(*levels[-1]))
+    return levels
+
+
+def reduced_residual(levels, world, strength, indices, values):
+    """The residual world (world times ``strength``, with texels ``indices`` (n,) of its
+    H x 2H set to ``values`` (n, 3): :func:`lowered`) reduced as
+    :func:`reduced_world` reduces the world, whose ``levels`` it is given: only
+    the parents of the changed texels are recomputed, level by level, with
+    reduce_latlong's arithmetic (wa (x00 + x01) + wb (x10 + x11)), their
+    unchanged siblings read from the world (times ``strength``) or its levels.
+    Returns the last level, a new (h, 2h, 3) float32 array (the levels are kept
+    unchanged); equal to reducing the whole residual to 1e-7."""
+    from .envmap.mip import latlong_row_omega, latlong_row_weights
+
+    image = np.asarray(world)
+    rgb = image[..., :3] if image.dtype == np.float32 else image[..., :3].astype(np.float32)
+    scale32 = np.float32(strength)
+    order = np.argsort(indices, kind="stable")
+    flat, changed = np.asarray(indices, dtype=np.intp)[order], np.asarray(values)[order]
+    below_width = rgb.shape[1]
+    below_omega = latlong_row_omega(*rgb.shape[:2])
+    for depth, (level, omega) in enumerate(levels):
+        width = level.shape[1]
+        parents = np.unique((flat // below_width // 2) * width + (flat % below_width) // 2)
+        rows, cols = np.divmod(parents, width)
+        wa, wb, _ = latlong_row_weights(below_omega)
+
+        def child(r, c, depth=depth, flat=flat, changed=changed, below_width=below_width):
+            value = (rgb[r, c] * scale32) if depth == 0 else levels[depth - 1][0][r, c]
+            wanted = r * below_width + c
+            at = np.minimum(np.searchsorted(flat, wanted), max(len(flat) - 1, 0))
+            hit = (flat[at] == wanted) if len(flat) else np.zeros(len(wanted), bool)
+            value[hit] = changed[at[hit]]
+            return value
+
+        upper = child(2 * rows, 2 * cols) + child(2 * rows, 2 * cols + 1)
+        upper *= wa[rows, None]
+        lower = child(2 * rows + 1, 2 * cols) + child(2 * rows + 1, 2 * cols + 1)
+        lower *= wb[rows, None]
+        flat, changed = parents, upper + lower
+        below_width, below_omega = width, omega
+    out = levels[-1][0].copy()
+    out.reshape(-1, 3)[flat] = changed
     return out

@@ -223,6 +223,37 @@ def test_the_residual_cube_is_the_whole_conversion_of_the_residual_world(sun, fa
     assert whole_conversions == [1]
 
 
+@pytest.mark.parametrize(("height", "face", "strength"), [(256, 16, 1.0), (256, 16, 2.5),
+                                                      (128, 16, 1.0)])
+def test_the_reduced_residual_is_the_whole_residual_reduced(height, face, strength):
+    """bake.world_lights.reduced_residual recomputes only the parents of the lowered
+    texels (bake.world_lights.lowered), from the world's own reduced levels: what
+    reducing the whole residual world gives, as bake.envmap.convert reduces it
+    (two levels, one; the Strength applied once reduced: equal to 1e-6); the
+    world's kept levels are left as they were."""
+    from bake.envmap.convert import _prereduce, reduction_count
+
+    world = _world(height, sun=(1.0, 1.0, 1.0))
+    cube = convert(world, "latlong", "cube", face) * np.float32(strength)
+    _, lights = probe_lights.extract_for(cube, "cube", 0.3 ** 2)
+    residual, _ = world_lights.from_world(lights, world, face, strength=strength)
+    indices, values, _ = world_lights.lowered(lights, world, face, strength=strength)
+    assert len(indices) > 0
+    latlong, cube_layout = get_layout("latlong"), get_layout("cube")
+    count = reduction_count(latlong, world.shape, cube_layout, (face, 6 * face))
+    assert count == {256: 2, 128: 1}[height]
+    levels = world_lights.reduced_world(world, strength, count)
+    before = [level.copy() for level, _ in levels]
+    whole = _prereduce(latlong, residual, cube_layout, (face, 6 * face))
+    reduced = world_lights.reduced_residual(levels, world, strength, indices, values)
+    np.testing.assert_allclose(reduced, whole, rtol=1e-6, atol=1e-7 * float(whole.max()))
+    for (level, _), copy in zip(levels, before, strict=True):
+        np.testing.assert_array_equal(level, copy)
+    changed = np.abs(whole - _prereduce(latlong, world * np.float32(strength), cube_layout,
+                                        (face, 6 * face))).max(axis=-1) > 0
+    assert changed.any()  # the lowered texels' parents did change
+
+
 def test_the_lights_do_not_depend_on_the_chunking(monkeypatch):
     """The bright texels are compared with the lights a chunk at a time (memory
     stays bounded on an 8k world); chunks of 2 texels give the same split,
