@@ -30,7 +30,7 @@ import numpy as np
 from . import exr_codec, outputs
 from .errors import BakeError
 
-__all__ = ["read", "write", "read_header", "read_parts", "write_parts", "EXR_MAGIC",
+__all__ = ["read", "write", "read_header", "read_meta", "read_parts", "write_parts", "EXR_MAGIC",
            "META_ATTRIBUTE"]
 
 EXR_MAGIC = b"\x76\x2f\x31\x01"
@@ -234,6 +234,13 @@ def _handle_nonfinite(layers: dict, path: Path, nonfinite: str) -> None:
         RuntimeWarning,
         stacklevel=3,
     )
+
+
+def read_meta(path) -> dict:
+    """The ``glossy`` header attribute of an EXR as a dict ({} when absent), without
+    decoding its pixels (BakeError for an unreadable file or a bad attribute)."""
+    path = Path(path)
+    return _decode_meta(read_header(path), path)
 
 
 def read_header(path) -> dict:

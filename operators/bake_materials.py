@@ -536,7 +536,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             inputs["coat_tint"] = spatial["coat_tint"]
         maps = []
         for roughness, knot_path, key in knots:
-            _, knot_meta = exr.read(knot_path)
+            knot_meta = exr.read_meta(knot_path)
             maps.append((roughness, key, load_atlas(
                 knot_path, precision=knot_meta.get("precision", "float32")), knot_meta))
         if HIGH in keys:
@@ -562,12 +562,12 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     continue
                 image = meta = diffuse = lamp_terms = runtime = None
                 if path:
-                    _, meta = exr.read(path)
+                    meta = exr.read_meta(path)
                     image = load_atlas(path, precision=meta.get("precision", "float32"))
                     if meta.get("mode") == sampling_runtime.MODE:  # Runtime Sampling
                         runtime, image, meta = (image, meta), None, None
                 if settings.runtime_path:  # the Hybrid's second texture
-                    _, runtime_meta = exr.read(settings.runtime_path)
+                    runtime_meta = exr.read_meta(settings.runtime_path)
                     runtime = (load_atlas(settings.runtime_path,
                                           precision=runtime_meta.get("precision", "float32")),
                                runtime_meta)
@@ -576,12 +576,12 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                 if warning:
                     warnings.append(warning)
                 if settings.diffuse_path:
-                    _, diffuse_meta = exr.read(settings.diffuse_path)
+                    diffuse_meta = exr.read_meta(settings.diffuse_path)
                     diffuse = (load_atlas(settings.diffuse_path,
                                           precision=diffuse_meta.get("precision", "float32")),
                                diffuse_meta)
                 if settings.lamp_path and settings.lamps:
-                    _, lamp_meta = exr.read(settings.lamp_path)
+                    lamp_meta = exr.read_meta(settings.lamp_path)
                     lamp_terms = (load_atlas(settings.lamp_path, precision="float32"), lamp_meta,
                                   lamps, settings.diffuse_colour())
                 stash_original(material)

@@ -81,3 +81,20 @@ def test_codec_refuses_what_it_cannot_read(tmp_path, hdri_dir, monkeypatch):
     with pytest.raises(BakeError, match="multi-part"):
         exr.write_parts(tmp_path / "parts.exr", {"a": np.ones((2, 2, 3))})
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("backend", ["openexr", "numpy"])
+def test_read_meta_is_the_header_read_without_the_pixels(tmp_path, monkeypatch, backend):
+    """exr.read_meta gives what exr.read gives as metadata, through either backend,
+    without decoding pixels (attach reads only this before Blender loads the
+    image); a file without Glossy metadata gives {}."""
+    monkeypatch.setenv("GLOSSY_EXR_BACKEND", backend)
+    meta = {"mode": "atlas3d", "slices": 4, "mu": [0.1, 0.5]}
+    image = np.random.default_rng(5).random((300, 40, 3)).astype(np.float32)
+    path = exr.write(tmp_path / "meta.exr", image, meta)
+    assert exr.read_meta(path) == exr.read(path)[1] == meta
+    decoded = []
+    monkeypatch.setattr(exr_codec, "decode", lambda *a, **k: decoded.append(1))
+    assert exr.read_meta(path) == meta and decoded == []
+    plain = exr.write(tmp_path / "plain.exr", image)
+    assert exr.read_meta(plain) == {}
