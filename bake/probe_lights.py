@@ -125,6 +125,9 @@ THRESHOLDS_ABOVE = _ladder(20.0, 640.0)[1:]
 #: does not, tried by extract_for: the lights taken are not monotone in the
 #: threshold, so the rung below can fail where a threshold just above it fits.
 REFINE_STEPS = 3
+#: Probes of at most this many texels keep what the ladder reads between lobes
+#: (extract_kept): 6 faces of 512^2.
+KEPT_TEXELS = 6 * 512 * 512
 #: Tiles of texels at least TILE_EXCESS times the threshold's luminance above it
 #: have the lobe's tile radius; dimmer ones up to TILE_GROWTH times it (tile_growth).
 TILE_EXCESS = 32.0
@@ -196,7 +199,8 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     (:func:`extract_for`'s ladder of thresholds). ``prepared``: this probe's
     :func:`_prepare` (the ladder computes it once), else computed here.
     """
-    image, directions, omega, radiance, luminance, mean = prepared or _prepare(probe, layout)
+    prepared = prepared or _prepare(probe, layout)
+    image, directions, omega, radiance, luminance, mean = prepared[:6]
     if threshold <= 1.0 or radius_texels <= 0 or max_lights < 0:
         raise BakeError("threshold must exceed 1, radius_texels be positive and max_lights "
                         "at least 0")
@@ -205,12 +209,8 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
     if mean <= 0.0 or max_lights == 0:
         return image[..., :3].astype(np.float32).copy(), []
     level = threshold * mean
-    bright = np.nonzero(luminance > level)[0]
-    bright = bright[np.argsort(-luminance[bright], kind="stable")]
     texel_angle = float(np.sqrt(omega.max()))
-    radius = radius_texels * texel_angle
-    members = _clusters(bright, directions, radius)
-    regions = _regions(members, directions, radius, texel_angle)
+    members, regions = _bright_regions(prepared, float(threshold), float(radius_texels))
     cos_group = np.cos(GROUP_RADIUS_TEXELS * texel_angle)
     candidates = []  # (energy, [(texels, is_tile)])
     count = 0
@@ -260,9 +260,11 @@ def extract(probe, layout="cube", threshold=THRESHOLD, radius_texels=RADIUS_TEXE
 
 def _prepare(probe, layout):
     """(image, directions (T, 3), solid angles (T,), radiance (T, 3) float64,
-    luminance (T,), mean luminance over the sphere) of a checked probe: what
+    luminance (T,), mean luminance over the sphere, {}) of a checked probe: what
     :func:`extract` reads, computed once for :func:`extract_for`'s ladder (a probe
-    of 1024 px faces is split about 14 times)."""
+    of 1024 px faces is split about 14 times). The dict keeps
+    :func:`_bright_regions` per threshold, which no lobe changes: every material
+    baked from one probe shares them (:func:`extract_kept`)."""
     image = np.asarray(probe)
     if image.ndim != 3 or image.shape[2] < 3:
         raise BakeError(f"a probe is (H, W, 3), not {image.shape}")
@@ -272,7 +274,29 @@ def _prepare(probe, layout):
     radiance = image[..., :3].reshape(-1, 3).astype(np.float64)
     luminance = radiance @ LUMINANCE
     mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
-    return image, directions, omega, radiance, luminance, mean
+    return image, directions, omega, radiance, luminance, mean, {}
+
+
+def _bright_regions(prepared, threshold, radius_texels):
+    """(members, regions) of a :func:`_prepare`'d probe at ``threshold`` times its mean
+    luminance: its texels brighter than that, brightest first, grouped into
+    clusters of ``radius_texels`` texels (:func:`_clusters`: index lists) and the
+    clusters that touch joined into regions (:func:`_regions`). They depend on the
+    probe alone, not on a lobe, so they are kept in ``prepared``'s dict (the
+    rungs of :func:`extract_for`'s ladder are the same for every lobe); do not
+    modify them."""
+    _, directions, omega, _, luminance, mean, kept = prepared
+    key = (threshold, radius_texels, ADJACENT_TEXELS)
+    found = kept.get(key)
+    if found is None:
+        bright = np.nonzero(luminance > threshold * mean)[0]
+        bright = bright[np.argsort(-luminance[bright], kind="stable")]
+        texel_angle = float(np.sqrt(omega.max()))
+        radius = radius_texels * texel_angle
+        members = _clusters(bright, directions, radius)
+        found = kept.setdefault(key, (members, _regions(members, directions, radius,
+                                                         texel_angle)))
+    return found
 
 
 @functools.lru_cache(maxsize=4)
@@ -457,7 +481,8 @@ def limits_for(ax, ay=None) -> dict:
             "tile_radius": TILE_FRACTION * mean}
 
 
-def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
+def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS,
+                prepared=None):
     """:func:`extract` for a GGX lobe (:func:`limits_for`, its compact lights up to
     :func:`compact_spread_for` this probe's texels) at the lowest of THRESHOLDS
     at which every bright region is taken within ``max_lights``: the more of the
@@ -489,7 +514,7 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
     largest = float(get_layout(layout).solid_angles(np.asarray(probe).shape[:2]).max())
     limits["max_spread"] = compact_spread_for(min(ax, ax if ay is None else ay), largest)
 
-    prepared = _prepare(probe, layout)
+    prepared = prepared or _prepare(probe, layout)
 
     def split_at(threshold):
         return extract(probe, layout, threshold=threshold, max_lights=max_lights,
@@ -526,16 +551,23 @@ def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS):
 
 def extract_kept(probe, layout="cube", ax=0.09, ay=None):
     """:func:`extract_for` computed once per probe content and lobe
-    (bake.probe_maps.ProbeMaps.kept): the materials of one probe share it. Do
-    not modify the residual."""
+    (bake.probe_maps.ProbeMaps.kept): the materials of one probe share it, and
+    share the bright regions of each threshold between their lobes. Do not
+    modify the residual."""
     from .probe_maps import probe_maps
 
     key = (round(float(ax), 9), round(float(ax if ay is None else ay), 9))
-    return probe_maps(probe, layout).kept(
+    maps = probe_maps(probe, layout)
+    # The probe's texels read once and their bright regions found once per rung of
+    # the ladder, for every lobe (_bright_regions), kept with the probe up to
+    # KEPT_TEXELS (about 48 bytes a texel).
+    prepared = maps.kept(("probe lights prepared",), lambda: _prepare(probe, layout)) \
+        if np.asarray(probe).shape[0] * np.asarray(probe).shape[1] <= KEPT_TEXELS else None
+    return maps.kept(
         ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, REFINE_STEPS, RADIUS_TEXELS, MAX_LIGHTS,
          ADJACENT_TEXELS, GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH,
          SPREAD_PER_ALPHA, UNRESOLVED_SPREADS, SPREAD_CAP_PER_ALPHA, key),
-        lambda: extract_for(probe, layout, ax, ay))
+        lambda: extract_for(probe, layout, ax, ay, prepared=prepared))
 
 
 def describe(lights) -> str:

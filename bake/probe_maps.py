@@ -22,9 +22,10 @@ from collections import OrderedDict
 import numpy as np
 
 from .envmap import convert, get_layout
+from .envmap.convert import convert_changed
 from .zonal import row_spectrum
 
-__all__ = ["ProbeMaps", "probe_maps", "resample_rows", "clear_cache"]
+__all__ = ["ProbeMaps", "probe_maps", "residual_maps", "resample_rows", "clear_cache"]
 
 #: Probes kept in the process-wide cache (least recently used dropped first).
 CACHE_PROBES = 3
@@ -42,12 +43,19 @@ class ProbeMaps:
     conversion.
     """
 
-    def __init__(self, image, layout):
+    def __init__(self, image, layout, parent=None):
         from .envmap.mip import pyramid
 
         self.layout = layout
         self.shape = image.shape
         self.levels = pyramid(image, layout, "box") if layout in ("cube", "latlong") else [image]
+        #: A ProbeMaps of an image of the same shape and layout that differs from this
+        #: one on a few texels (the probe this residual's lights were taken from:
+        #: :func:`residual_maps`); conversions are then its own, recomputed only
+        #: near those texels (bake.envmap.convert.convert_changed).
+        self.parent = parent if parent is not None and parent.layout == layout and \
+            parent.shape == image.shape and layout in ("cube", "latlong") else None
+        self._plain: dict = {}
         self._maps: dict = {}
         self._spectra: dict = {}
         self._lock = threading.Lock()
@@ -69,7 +77,31 @@ class ProbeMaps:
             if source.covered_texels(level.shape[:2]) >= needed:
                 chosen = level
         ratio = source.covered_texels(chosen.shape[:2]) / needed
-        return convert(chosen, self.layout, layout, size, samples=self.samples_for(ratio))
+        samples = self.samples_for(ratio)
+        if self.parent is not None and layout == "latlong":
+            index = next(i for i, level in enumerate(self.levels) if level is chosen)
+            before = self.parent.levels[index]
+            return convert_changed(self.parent.latlong(size), chosen,
+                                   np.any(chosen != before, axis=-1), self.layout, size,
+                                   samples=samples)
+        return convert(chosen, self.layout, layout, size, samples=samples)
+
+    def plain(self, rows: int):
+        """(rows, 2 rows, 3) float32: bake.envmap.convert of the probe itself (not of a
+        pyramid level, with convert's own sub-samples) to a lat-long map, as
+        bake.sampling_atlas.pack_levels converts it (cached; do not modify)."""
+        rows = int(rows)
+        with self._row_lock(("plain", rows)):
+            if rows not in self._plain:
+                image = self.levels[0]
+                if self.parent is not None:
+                    self._plain[rows] = convert_changed(
+                        self.parent.plain(rows), image,
+                        np.any(image != self.parent.levels[0], axis=-1), self.layout, rows)
+                else:
+                    self._plain[rows] = convert(image, self.layout, "latlong", rows)
+                self.computed["maps"] += 1
+            return self._plain[rows]
 
     @staticmethod
     def samples_for(ratio):
@@ -162,6 +194,29 @@ def probe_maps(image, layout) -> ProbeMaps:
             _cache.move_to_end(key)
             return maps
     maps = ProbeMaps(np.asarray(image, dtype=np.float32), layout)
+    with _cache_lock:
+        maps = _cache.setdefault(key, maps)
+        _cache.move_to_end(key)
+        while len(_cache) > CACHE_PROBES:
+            _cache.popitem(last=False)
+    return maps
+
+
+def residual_maps(residual, layout, probe) -> ProbeMaps:
+    """The shared :class:`ProbeMaps` of ``residual`` (H, W, 3), a copy of ``probe`` changed
+    on a few texels (its small bright lights taken out, bake.world_lights.split_for),
+    made with ``probe``'s as its parent: its lat-long conversions are the probe's,
+    recomputed only near the changed texels, so the materials of one probe, each
+    with its own lights, share the probe's conversions. :func:`probe_maps` of the
+    same residual returns it after."""
+    key = _digest(residual, layout)
+    with _cache_lock:
+        maps = _cache.get(key)
+        if maps is not None:
+            _cache.move_to_end(key)
+            return maps
+    parent = probe_maps(probe, layout)
+    maps = ProbeMaps(np.asarray(residual, dtype=np.float32), layout, parent=parent)
     with _cache_lock:
         maps = _cache.setdefault(key, maps)
         _cache.move_to_end(key)

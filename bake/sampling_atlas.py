@@ -32,11 +32,14 @@ __all__ = ["pack_levels", "AtlasProbe", "MODE"]
 MODE = "atlas_levels"
 
 
-def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None):
+def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None, base=None):
     """(atlas, meta) of a probe's pre-blurred levels (see the module doc).
 
     probe: (H, W, 3) in ``layout``; height: the lat-long rows (default: twice a
     cube face, or the lat-long's own); levels: how many (default: down to 2 rows).
+    base: the probe already converted to ``height`` lat-long rows
+    (bake.envmap.convert with its own sub-samples: bake.probe_maps.ProbeMaps.plain),
+    or None to convert it here.
     """
     layout_obj = get_layout(layout)
     probe = layout_obj.check_image(probe)[..., :3].astype(np.float32)
@@ -46,7 +49,11 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None)
         raise BakeError(f"the atlas height must be a power of two >= 4, not {height!r}")
     height = int(height)
     latlong = get_layout("latlong")
-    if layout_obj.name == "latlong" and probe.shape[0] == height:
+    if base is not None:
+        base = np.asarray(base, dtype=np.float32)[..., :3]
+        if base.shape != (height, 2 * height, 3):
+            raise BakeError(f"the converted probe is {base.shape}, not ({height}, {2 * height}, 3)")
+    elif layout_obj.name == "latlong" and probe.shape[0] == height:
         base = probe
     else:
         base = convert(probe, layout_obj.name, "latlong", height).astype(np.float32)
@@ -55,9 +62,7 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None)
     if not 1 <= count <= most:
         raise BakeError(f"levels must lie in 1..{most} for height {height}, not {levels!r}")
     chain = pyramid(base, "latlong", filter, levels=count)
-    directions = latlong.texel_directions(base.shape[:2])
-    slices = [base] + [latlong.sampler(level)(directions)[..., :3].astype(np.float32)
-                       for level in chain[1:]]
+    slices = [base] + [latlong.upsampled(level[..., :3], height) for level in chain[1:]]
     atlas = np.concatenate([_pad(level) for level in slices], axis=0)
     atlas = np.concatenate([atlas, np.zeros((atlas.shape[0], 1, 3), np.float32)], axis=1)
     meta = {"mode": MODE, "slices": len(slices), "slice_height": height,

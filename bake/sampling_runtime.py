@@ -336,8 +336,14 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     xi0 = DEFAULTS["ggx"][1] if xi0 is None else float(xi0)
     bias = mip_bias_for(lobe.mx, lobe.my) if bias is None else float(bias)
     # The level stack depends on the probe alone: made once for all its materials.
-    levels, meta = probe_maps(probe, layout).kept(
-        ("runtime levels", height, filter), lambda: pack_levels(probe, layout, height, filter))
+    # A residual's (bake.probe_maps.residual_maps) conversion is its probe's, recomputed
+    # near its lights only.
+    maps = probe_maps(probe, layout)
+    levels, meta = maps.kept(
+        ("runtime levels", height, filter), lambda: pack_levels(
+            probe, layout, height, filter,
+            base=maps.plain(height) if height is not None and layout in ("cube", "latlong")
+            and not (layout == "latlong" and np.asarray(probe).shape[0] == height) else None))
     meta = dict(meta)
     height, width = meta["slice_height"], meta["slice_width"]
     count_phi = ALBEDO_PHI if lobe.anisotropic else 1

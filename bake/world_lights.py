@@ -57,6 +57,7 @@ import numpy as np
 
 from . import probe_lights
 from .envmap import convert, get_layout
+from .envmap.convert import CHECK_TEXELS, CHECK_TOLERANCE, LOCAL_SHARE
 from .errors import BakeError
 
 __all__ = ["from_world", "lowered", "reduced_world", "reduced_residual", "residual_cube",
@@ -259,7 +260,21 @@ def split_for(probe, layout, ax, ay=None, world=None, mapping=None, world_digest
     says which was used and, when the cube's, why (None without a world).
     Kept per probe, world and lobe (bake.probe_maps): the materials of one
     bake share it; do not modify the residual. ``world_digest``: :func:`digest`
-    of ``world`` when the caller has it (hashing a 4k world takes 0.1 s)."""
+    of ``world`` when the caller has it (hashing a 4k world takes 0.1 s).
+
+    The residual's bake.probe_maps entry is made with the probe's as its parent
+    (bake.probe_maps.residual_maps), so its lat-long conversions are the probe's
+    recomputed near the lights only, shared by every lobe's residual."""
+    residual, lights, why = _split_for(probe, layout, ax, ay, world, mapping, world_digest)
+    if layout in ("cube", "latlong") and residual is not probe:
+        from .probe_maps import residual_maps
+
+        residual_maps(residual, layout, probe)
+    return residual, lights, why
+
+
+def _split_for(probe, layout, ax, ay, world, mapping, world_digest):
+    """:func:`split_for` without making the residual's bake.probe_maps entry."""
     residual, lights = probe_lights.extract_kept(probe, layout, ax, ay)
     if world is None or not lights:
         return residual, lights, None
@@ -311,12 +326,10 @@ def split_for(probe, layout, ax, ay=None, world=None, mapping=None, world_digest
 
 
 #: residual_cube converts the whole world again when more than this share of the
-#: cube's texels lie near the lights (the local update would save little).
-LOCAL_SHARE = 0.5
-#: Texels of the cube checked against the world's own conversion (module doc of
-#: residual_cube): how many, and the largest relative difference accepted.
-CHECK_TEXELS = 256
-CHECK_TOLERANCE = 1e-4
+#: cube's texels lie near the lights (the local update would save little); it
+#: checks CHECK_TEXELS other texels of the cube against the world's own
+#: conversion, to CHECK_TOLERANCE relative (bake.envmap.convert.convert_changed's,
+#: imported at the top).
 
 
 def residual_cube(probe, lights, world_residual, transform=None):

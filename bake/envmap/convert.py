@@ -22,8 +22,15 @@ from ..errors import BakeError
 from ..progress import Progress, report
 from .layout import Layout
 
-__all__ = ["convert", "convert_texels", "reduction_count", "resample", "supersampling"]
+__all__ = ["convert", "convert_texels", "convert_changed", "reduction_count", "resample",
+           "supersampling"]
 
+#: convert_changed: other texels recomputed as a check, the relative tolerance of
+#: that check (float32 sums in another order differ by about 1e-7), and the share
+#: of the target above which the whole conversion is cheaper.
+CHECK_TEXELS = 256
+CHECK_TOLERANCE = 1e-4
+LOCAL_SHARE = 0.5
 #: Sub-samples evaluated per work item (bounds memory to a few hundred MB).
 _CHUNK_SAMPLES = 1 << 18
 MAX_SUPERSAMPLING = 8
@@ -186,3 +193,128 @@ def _plan(image, src, dst, size, samples, transform):
         def sample(directions):
             return lookup(transform(directions))
     return sample, target, shape, int(k), image.shape[2]
+
+
+def _reduced_mask(mask, layout: Layout, count: int):
+    """``mask`` (H, W) bool after ``count`` 2x2 halvings (per face): a texel is set when
+    any of its children is, as a box reduction mixes them."""
+    stack = layout.to_faces(mask[..., None])[..., 0]
+    for _ in range(count):
+        faces, height, width = stack.shape
+        stack = stack.reshape(faces, height // 2, 2, width // 2, 2).any(axis=(2, 4))
+    return layout.from_faces(stack[..., None])[..., 0]
+
+
+def _source_texel_angle(layout: Layout, shape) -> float:
+    """The largest angular side (rad) of a texel of ``shape`` in ``layout``."""
+    if layout.name == "latlong":
+        return max(math.pi / shape[0], 2.0 * math.pi / shape[1])
+    if layout.name == "cube":
+        return 2.0 / shape[0]  # a face-centre texel: 2 / N of the unit face
+    return float(np.sqrt(layout.solid_angles(shape).max())) * 2.0
+
+
+def _near_latlong(directions, margin, shape):
+    """(H, W) bool: the lat-long texels of ``shape`` whose centre lies within ``margin``
+    (rad) of any of ``directions`` (n, 3), conservatively (a texel's row band of
+    latitudes and, per row, the longitude span the margin reaches at the band's
+    smallest sine; whole rows where the band reaches a pole)."""
+    height, width = shape
+    d_theta, d_phi = math.pi / height, 2.0 * math.pi / width
+    theta = np.arccos(np.clip(directions[:, 2], -1.0, 1.0))
+    column = np.mod(0.5 - np.arctan2(directions[:, 1], directions[:, 0]) / (2.0 * np.pi),
+                    1.0) * width - 0.5
+    first = np.clip(np.floor((theta - margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
+    last = np.clip(np.ceil((theta + margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
+    low = np.minimum(np.sin(np.clip(theta - margin, 0.0, np.pi)),
+                     np.sin(np.clip(theta + margin, 0.0, np.pi)))
+    polar = (theta - margin <= 0.0) | (theta + margin >= np.pi)
+    with np.errstate(divide="ignore"):
+        span = np.where(polar | (low <= 0.0), np.inf,
+                        np.arcsin(np.minimum(math.sin(min(margin, 0.5 * math.pi))
+                                             / np.maximum(low, 1e-300), 1.0)) / d_phi)
+    span = np.where(span >= 0.5 * math.pi / d_phi, np.inf, span)  # past a quarter turn: all
+    # One (row, start, stop) interval per direction and row of its band, painted
+    # into a difference array along each row (wrapping intervals split in two).
+    rows_per = last - first + 1
+    owner = np.repeat(np.arange(len(theta)), rows_per)
+    rows = first[owner] + (np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per,
+                                                              rows_per))
+    whole = ~np.isfinite(span[owner])
+    near = np.zeros(shape, dtype=bool)
+    near[np.unique(rows[whole])] = True
+    rows, owner = rows[~whole], owner[~whole]
+    start = np.floor(column[owner] - span[owner] - 1.0).astype(np.intp)
+    stop = np.ceil(column[owner] + span[owner] + 1.0).astype(np.intp) + 1  # exclusive
+    full = (stop - start) >= width
+    near[np.unique(rows[full])] = True
+    rows, start, stop = rows[~full], start[~full], stop[~full]
+    marks = np.zeros((height, width + 1), dtype=np.int32)
+    begin, end = np.mod(start, width), np.mod(start, width) + (stop - start)
+    wraps = end > width
+    np.add.at(marks, (rows, begin), 1)
+    np.add.at(marks, (rows[~wraps], end[~wraps]), -1)
+    np.add.at(marks, (rows[wraps], np.full(int(wraps.sum()), width)), -1)
+    np.add.at(marks, (rows[wraps], np.zeros(int(wraps.sum()), dtype=np.intp)), 1)
+    np.add.at(marks, (rows[wraps], end[wraps] - width), -1)
+    near |= np.cumsum(marks, axis=1)[:, :width] > 0
+    return near
+
+
+def convert_changed(converted, image, changed, src, size, *, samples: int | None = None):
+    """convert(image, src, "latlong", size, samples=samples) (float32 (size, 2 size, C)),
+    given ``converted``, the same conversion of an image that differs from ``image``
+    only at the texels where ``changed`` (H, W) bool is set (a probe with its small
+    bright lights taken out, against the probe): only the target texels that can
+    read a changed texel are recomputed (:func:`convert_texels`).
+
+    Conversion is linear and local: a target texel reads its sub-samples (within
+    its half diagonal) by bilinear lookups (the four texels around a point, within
+    a texel diagonal) of the source, after convert's 2 x 2 box reductions (which
+    widen a changed texel to its parent) and, for a lat-long source, the polar
+    rows' box filter to the sub-sample spacing. Target texels within 1.5 times
+    the sum of those reaches of a changed texel's centre are recomputed; so are
+    CHECK_TEXELS others, which must equal ``converted`` (else it was not this
+    conversion, and the whole image is converted), as is the whole image when
+    over LOCAL_SHARE of it is near a change. Equal to the whole conversion to
+    float32 rounding."""
+    from . import get_layout
+
+    source, target = get_layout(src), get_layout("latlong")
+    image = source.check_image(image)
+    shape = target.shape(size)
+    converted = np.asarray(converted)
+    changed = np.asarray(changed, dtype=bool)
+    if converted.shape[:2] != shape or changed.shape != image.shape[:2]:
+        raise BakeError(f"convert_changed: a {converted.shape} conversion and a "
+                        f"{changed.shape} mask for a {image.shape} image at size {size}")
+    if not changed.any():
+        return converted.astype(np.float32, copy=True)
+    count = reduction_count(source, image.shape[:2], target, shape)
+    reduced_shape = (image.shape[0] >> count, image.shape[1] >> count)
+    mask = _reduced_mask(changed, source, count)
+    k = samples if samples is not None else supersampling(source, reduced_shape, target, shape)
+    spacing = math.sqrt(4.0 * math.pi / target.covered_texels(shape)) / k
+    reach = (math.sqrt(2.0) * _source_texel_angle(source, reduced_shape)
+             + 0.5 * math.hypot(math.pi / shape[0], 2.0 * math.pi / shape[1])
+             + (spacing if source.name == "latlong" else 0.0))
+    ys, xs = np.nonzero(mask)
+    directions = source.directions(xs + 0.5, ys + 0.5, reduced_shape).reshape(-1, 3)
+    near = _near_latlong(directions, 1.5 * reach, shape)
+    if near.mean() > LOCAL_SHARE:
+        return convert(image, src, "latlong", size, samples=samples)
+    far = np.flatnonzero(~near)
+    checked = far[np.linspace(0, len(far) - 1, min(CHECK_TEXELS, len(far))).astype(np.intp)]
+    chosen = np.concatenate([np.flatnonzero(near), checked])
+    rows, cols = np.divmod(chosen, shape[1])
+    values = convert_texels(image, src, "latlong", size, rows, cols, samples=samples)
+    count_near = len(chosen) - len(checked)
+    flat = converted.reshape(-1, converted.shape[-1])
+    expected = flat[checked]
+    scale = max(float(np.abs(converted).mean()), 1e-30)
+    if np.any(np.abs(values[count_near:] - expected)
+              > CHECK_TOLERANCE * np.maximum(np.abs(expected), scale)):
+        return convert(image, src, "latlong", size, samples=samples)
+    out = converted.astype(np.float32, copy=True)
+    out.reshape(-1, out.shape[-1])[chosen[:count_near]] = values[:count_near]
+    return out

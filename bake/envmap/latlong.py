@@ -120,6 +120,33 @@ class LatLong(Layout):
 
         return sample
 
+    def upsampled(self, image, height):
+        """(height, 2 height, C) float32: :meth:`sampler` (no spacing) of a lat-long
+        ``image`` (h, w, C) looked up at the texel centres of a height x 2 height
+        lat-long grid, computed separably: every target row shares one source
+        latitude and every target column one longitude, so the bilinear lookup is
+        a lerp between two pole-padded rows, then between two wrapped columns
+        (equal to the sampler to float32 rounding; no per-texel direction)."""
+        image = self.check_image(image)
+        rows_in, cols_in = image.shape[:2]
+        y = (np.arange(height) + 0.5) * (rows_in / height)  # the sampler's coords (y, x)
+        x = np.mod((np.arange(2 * height) + 0.5) / (2 * height), 1.0) * cols_in
+        south = rows_in + 1.0 - 2.0 * (rows_in - y)
+        py = np.where(y < 0.5, 2.0 * y, np.where(y > rows_in - 0.5, south, y + 0.5))
+        px = x + 0.5
+        data = image.astype(np.float32, copy=False)
+        rows = np.concatenate([data[:1].mean(axis=1, keepdims=True).repeat(cols_in, 1), data,
+                               data[-1:].mean(axis=1, keepdims=True).repeat(cols_in, 1)], 0)
+        padded = np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1)
+        py = np.clip(py, 0.0, rows_in + 1.0)
+        px = np.clip(px, 0.0, cols_in + 1.0)
+        y0 = np.minimum(py.astype(np.intp), rows_in)
+        x0 = np.minimum(px.astype(np.intp), cols_in)
+        fy = (py - y0).astype(np.float32)[:, None, None]
+        fx = (px - x0).astype(np.float32)[None, :, None]
+        across = padded[y0] * (1 - fy) + padded[y0 + 1] * fy  # (height, w + 2, C)
+        return across[:, x0] * (1 - fx) + across[:, x0 + 1] * fx
+
     @staticmethod
     def _prefilter_rows(image, spacing):
         height, width = image.shape[:2]

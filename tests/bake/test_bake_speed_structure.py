@@ -293,3 +293,63 @@ def test_a_principled_brdf_solves_no_quadrature_per_evaluation(monkeypatch):
     mu = 0.5 * (nodes + 1.0)
     assert dielectric_hemispherical_average(1.45) == pytest.approx(
         float(np.sum(weights * fresnel.dielectric(mu, 1.45) * mu)), rel=1e-13)
+
+
+def test_a_residual_s_maps_are_its_probe_s_updated_near_its_lights(probe):
+    """bake.probe_maps.residual_maps (what bake.world_lights.split_for makes for each
+    lobe's residual): its lat-long maps, for the 3D map's filtering and for the
+    runtime level stack, equal those of the same residual made on its own (1e-6 of
+    the peak: float32 sums in another order), and are computed from the probe's."""
+    from bake import probe_lights
+
+    probe_maps.clear_cache()
+    bright = probe.copy()
+    bright[5, 40] = bright[20, 130] = 400.0  # two small lights, above the ladder's rungs
+    residual, lights = probe_lights.extract_kept(bright, "cube", 0.09)
+    assert lights and np.any(residual != bright)
+    derived = probe_maps.residual_maps(residual, "cube", bright)
+    assert derived.parent is probe_maps.probe_maps(bright, "cube")
+    assert probe_maps.probe_maps(residual.copy(), "cube") is derived
+    alone = probe_maps.ProbeMaps(residual, "cube")
+    for rows in (16, 48, 64):
+        expected = alone.latlong(rows)
+        np.testing.assert_allclose(derived.latlong(rows), expected, rtol=0,
+                                   atol=1e-6 * float(expected.max()))
+        np.testing.assert_allclose(derived.plain(rows), envmap.convert(residual, "cube",
+                                                                       "latlong", rows),
+                                   rtol=0, atol=1e-6 * float(expected.max()))
+    assert derived.parent.computed["maps"] == 6  # the probe's own three and three plain
+
+
+def test_lobes_of_one_probe_share_its_bright_regions(probe, monkeypatch):
+    """extract_kept for three lobes of one probe clusters each rung's bright texels
+    once (bake.probe_lights._bright_regions), and gives what extract_for gives
+    alone."""
+    from bake import probe_lights
+
+    probe_maps.clear_cache()
+    bright = probe.copy()
+    bright[5, 40] = bright[20, 130] = 400.0
+    bright[10:14, 100:106] = 60.0  # a wide region: tiled, per lobe
+    calls = []
+    clusters = probe_lights._clusters
+
+    def counted(ordered, directions, radius):
+        calls.append(np.ndim(radius) == 0)  # one radius: the rung's clusters, not tiles
+        return clusters(ordered, directions, radius)
+
+    monkeypatch.setattr(probe_lights, "_clusters", counted)
+    alphas = (0.04, 0.09, 0.25)
+    kept = [probe_lights.extract_kept(bright, "cube", alpha) for alpha in alphas]
+    rungs = sum(calls)
+    monkeypatch.setattr(probe_lights, "_clusters", clusters)
+    for alpha, (residual, lights) in zip(alphas, kept, strict=True):
+        alone_residual, alone_lights = probe_lights.extract_for(bright, "cube", alpha)
+        np.testing.assert_array_equal(residual, alone_residual)
+        assert [light.to_json() for light in lights] == \
+            [light.to_json() for light in alone_lights]
+    calls.clear()
+    monkeypatch.setattr(probe_lights, "_clusters", counted)
+    for alpha in alphas:
+        probe_lights.extract_for(bright, "cube", alpha)
+    assert rungs < sum(calls)  # unshared, each lobe clusters its rungs again

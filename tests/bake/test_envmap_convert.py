@@ -246,3 +246,61 @@ def test_converting_some_texels_gives_what_the_whole_conversion_gives(src, src_s
     some = convert_texels(image, src, dst, size, ys, xs, transform=turn)
     assert some.shape == (len(ys), 3) and some.dtype == np.float32
     np.testing.assert_allclose(some, whole[ys, xs], rtol=1e-6, atol=1e-6)
+
+
+def _changed(name, size, picks, seed):
+    """(image, changed image, mask): a random map with the texels ``picks`` scaled by
+    0.01, as a probe's lights are lowered."""
+    from bake.envmap import get_layout as layout_of
+
+    shape = layout_of(name).shape(size)
+    rng = np.random.default_rng(seed)
+    image = (rng.random((*shape, 3)) ** 6 * 20.0 + 0.1).astype(np.float32)
+    mask = np.zeros(shape, dtype=bool)
+    for y, x in picks:
+        mask[y % shape[0], x % shape[1]] = True
+    changed = image.copy()
+    changed[mask] *= np.float32(0.01)
+    return image, changed, mask
+
+
+@pytest.mark.parametrize("src, src_size, size, samples, picks", [
+    # cube corners, a pole-facing face centre and a seam
+    ("cube", 32, 64, None, [(0, 0), (31, 191), (16, 16), (16, 69), (0, 144), (31, 96)]),
+    ("cube", 32, 96, 1, [(5, 7), (20, 100), (31, 160)]),  # one sub-sample (ProbeMaps' rule)
+    ("cube", 64, 16, None, [(3, 5), (60, 300)]),  # reduced twice before resampling
+    ("cube", 32, 64, None, [(y, x) for y in range(8, 14) for x in range(70, 82)]),  # a block
+    ("latlong", 32, 64, None, [(0, 3), (31, 40), (16, 0), (16, 63)]),  # poles, the u seam
+    ("latlong", 64, 16, None, [(0, 3), (1, 70), (40, 127)]),
+])
+def test_a_conversion_updated_near_changed_texels_is_the_whole_conversion(
+        monkeypatch, src, src_size, size, samples, picks):
+    """convert_changed against convert of the changed image: equal to float32 rounding
+    (1e-6 of the peak), recomputing only near the changes (the whole conversion is
+    not called)."""
+    import importlib
+
+    convert_module = importlib.import_module("bake.envmap.convert")
+    image, changed, mask = _changed(src, src_size, picks, seed=len(picks) + size)
+    before = convert(image, src, "latlong", size, samples=samples)
+    expected = convert(changed, src, "latlong", size, samples=samples)
+
+    def whole(*args, **kwargs):
+        raise AssertionError("converted the whole image")
+
+    monkeypatch.setattr(convert_module, "convert", whole)
+    got = convert_module.convert_changed(before, changed, mask, src, size, samples=samples)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6 * float(expected.max()))
+
+
+def test_a_conversion_updated_from_the_wrong_image_is_converted_whole():
+    """When ``converted`` is not the original's conversion (the check texels differ),
+    the result is still the changed image's whole conversion."""
+    from bake.envmap.convert import convert_changed
+
+    image, changed, mask = _changed("cube", 32, [(4, 4)], seed=1)
+    wrong = convert(image * np.float32(1.5), "cube", "latlong", 64)
+    got = convert_changed(wrong, changed, mask, "cube", 64)
+    np.testing.assert_allclose(got, convert(changed, "cube", "latlong", 64), rtol=1e-6)
+    with pytest.raises(BakeError):
+        convert_changed(wrong, changed, mask[:, :10], "cube", 64)
