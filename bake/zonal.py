@@ -149,9 +149,14 @@ def _column_reach(ta, tb, reach):
 
 
 class _SubGrid:
-    """Sub-sample positions of an (H, W) lat-long grid's input texels, s x s per texel:
-    their latitudes (sin, cos), the exact solid angle of each latitude sub-band per
-    longitude sub-step, and cos of the longitude offsets of columns 0..W/2."""
+    """Sub-sample positions of an (H, W) lat-long grid's input texels: s per texel in
+    latitude and, per row, s_phi <= s in longitude, so that no row is sampled more
+    densely across than along: s_phi = ceil(s w / h) for a texel of angular height
+    h = pi / H and width w = sin(theta) 2 pi / W at its edge nearer the equator (s
+    at the equator of a W = 2H grid, 1 for the thin texels at the poles, where s x s
+    sub-samples of every column would cost most and add nothing). Holds their
+    latitudes (sin, cos) and the exact solid angle of each latitude sub-band per
+    longitude sub-step."""
 
     def __init__(self, height, width, s):
         edges = np.pi * np.arange(height + 1) / height
@@ -159,16 +164,42 @@ class _SubGrid:
         self.theta = edges[:-1, None] + sub[None, :] * (np.pi / height)  # (H, s)
         self.sin = np.sin(self.theta)
         band = edges[:-1, None] + np.arange(s + 1)[None, :] * (np.pi / height / s)
-        self.omega = ((np.cos(band[:, :-1]) - np.cos(band[:, 1:]))
-                      * (2 * np.pi / width / s)).astype(np.float32)
-        half = width // 2 + 1
-        dphi = 2.0 * np.pi * (np.arange(half)[:, None] + (sub[None, :] - 0.5)) / width
-        self.versine_dphi = (2.0 * np.sin(0.5 * dphi) ** 2).astype(np.float32)  # (W/2+1, s)
+        #: Solid angle of each latitude sub-band (H, s), over one whole texel's longitude.
+        self.band_omega = (np.cos(band[:, :-1]) - np.cos(band[:, 1:])) * (2 * np.pi / width)
+        widest = np.maximum(np.sin(edges[:-1]), np.sin(edges[1:]))
+        widest = np.where((edges[:-1] < np.pi / 2) & (edges[1:] > np.pi / 2), 1.0, widest)
+        self.s_phi = np.clip(np.ceil(s * widest * (2.0 * np.pi / width) / (np.pi / height)
+                                     - 1e-9), 1, s).astype(np.intp)  # (H,)
+        self.width = width
+        self._dphi: dict = {}
         self.s = s
+
+    def _versine_dphi(self, count):
+        """(W/2 + 1, count) float32: 2 sin^2(dphi / 2) at ``count`` longitude sub-steps of
+        columns 0..W/2 (cached)."""
+        if count not in self._dphi:
+            sub = (np.arange(count) + 0.5) / count
+            dphi = 2.0 * np.pi * (np.arange(self.width // 2 + 1)[:, None]
+                                  + (sub[None, :] - 0.5)) / self.width
+            self._dphi[count] = (2.0 * np.sin(0.5 * dphi) ** 2).astype(np.float32)
+        return self._dphi[count]
 
     def weights(self, table, ta, sa, b0, b1, cols):
         """Kernel integrated over input texels (rows b0:b1, columns 0:cols) for output
         rows at polar angles ta with sines sa (A,): (A, b1 - b0, cols) float64."""
+        out = np.empty((len(ta), b1 - b0, cols))
+        counts = self.s_phi[b0:b1]
+        start = b0
+        while start < b1:  # runs of input rows with one longitude sub-step count
+            stop = start + 1
+            while stop < b1 and counts[stop - b0] == counts[start - b0]:
+                stop += 1
+            out[:, start - b0:stop - b0] = self._weights(table, ta, sa, start, stop, cols,
+                                                         int(counts[start - b0]))
+            start = stop
+        return out
+
+    def _weights(self, table, ta, sa, b0, b1, cols, count):
         # 1 - cos(gamma) for (a, b, sub_b, m, sub_phi), in the haversine form
         # 2 sin^2((a - b) / 2) + sin a sin b 2 sin^2(dphi / 2): a sum of two
         # non-negative terms, accurate in float32 down to gamma = 0 (1 - (cos a
@@ -176,10 +207,11 @@ class _SubGrid:
         along = (2.0 * np.sin(0.5 * (ta[:, None, None] - self.theta[None, b0:b1, :])) ** 2
                  ).astype(np.float32)[:, :, :, None, None]
         across = (sa[:, None, None] * self.sin[None, b0:b1, :]).astype(np.float32)
-        versine = along + across[:, :, :, None, None] * self.versine_dphi[None, None, None,
-                                                                          :cols, :]
-        weights = table.at_versine(versine) * self.omega[None, b0:b1, :, None, None]
-        if self.s > 1:
+        versine = along + across[:, :, :, None, None] * \
+            self._versine_dphi(count)[None, None, None, :cols, :]
+        omega = (self.band_omega[b0:b1] / count).astype(np.float32)
+        weights = table.at_versine(versine) * omega[None, :, :, None, None]
+        if self.s > 1 or count > 1:
             return weights.sum(axis=(2, 4), dtype=np.float64)
         return weights[:, :, 0, :, 0].astype(np.float64)
 
