@@ -81,7 +81,7 @@ class ProbeMaps:
         if self.parent is not None and layout == "latlong":
             index = next(i for i, level in enumerate(self.levels) if level is chosen)
             before = self.parent.levels[index]
-            return convert_changed(self.parent.latlong(size), chosen,
+            return convert_changed(lambda: self.parent.latlong(size), chosen,
                                    np.any(chosen != before, axis=-1), self.layout, size,
                                    samples=samples)
         return convert(chosen, self.layout, layout, size, samples=samples)
@@ -96,7 +96,7 @@ class ProbeMaps:
                 image = self.levels[0]
                 if self.parent is not None:
                     self._plain[rows] = convert_changed(
-                        self.parent.plain(rows), image,
+                        lambda: self.parent.plain(rows), image,
                         np.any(image != self.parent.levels[0], axis=-1), self.layout, rows)
                 else:
                     self._plain[rows] = convert(image, self.layout, "latlong", rows)

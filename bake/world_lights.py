@@ -52,6 +52,8 @@ rotation-only Mapping node: bake.world_mapping), identity by default.
 
 import hashlib
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -105,6 +107,18 @@ def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
     return residual, out
 
 
+def _texel_directions(shape, rows, cols):
+    """(n, 3) float64: the directions of the centres of texels (rows, cols) (n,) of an
+    (H, W) lat-long image, as bake.envmap's LatLong.directions gives them (the same
+    operations on the same values, from one table of rows and one of columns)."""
+    height, width = shape
+    theta = np.pi * (np.arange(height) + 0.5) / height
+    phi = np.pi - 2.0 * np.pi * (np.arange(width) + 0.5) / width
+    sin_theta = np.sin(theta)[rows]
+    return np.stack([sin_theta * np.cos(phi)[cols], sin_theta * np.sin(phi)[cols],
+                     np.cos(theta)[rows]], -1)
+
+
 def lowered(lights, world, cube_face, to_texture=None, strength=1.0):
     """(indices (n,) into the world's H x 2H texels (row-major), their values in the
     residual (n, 3) float32, lights) of :func:`from_world`, without a copy of the
@@ -134,34 +148,60 @@ def lowered(lights, world, cube_face, to_texture=None, strength=1.0):
     layout = get_layout("latlong")
     shape = rgb.shape[:2]
     row_omega = layout.solid_angles((shape[0], 1))[:, 0] / shape[1]  # (H,) sr per texel
-    row_sums = np.maximum(luminance, 0.0).reshape(shape).sum(axis=1, dtype=np.float64)
+    # Negative texels count as 0 in the mean and are never bright: clamped in place.
+    np.maximum(luminance, 0.0, out=luminance)
+    row_sums = luminance.reshape(shape).sum(axis=1, dtype=np.float64)
     mean = float(row_sums @ row_omega / (4.0 * np.pi))
     level = thresholds.pop() * mean
-    bright = np.flatnonzero(luminance > level)
+    centres = np.array([light.direction for light in lights], dtype=np.float64)
+    cube_texel = 2.0 / float(cube_face)  # the cube's largest texel's angle (rad)
+    reach = np.array([REACH_SPREADS * light.spread + REACH_TEXELS * cube_texel
+                      for light in lights])
+    # Only bright texels within some light's reach can be taken (by their nearest
+    # light, within its own reach): those outside every light's box on a grid of
+    # at most 512 rows (its texel's half diagonal added to each reach) are left
+    # out before any direction is computed.
+    factor = max(1, shape[0] // 512)
+    coarse = (-(-shape[0] // factor), -(-shape[1] // factor))
+    in_texture = centres if to_texture is None else \
+        centres @ np.asarray(to_texture, dtype=np.float64).T
+    margin = 0.5 * math.hypot(math.pi / coarse[0], 2.0 * math.pi / coarse[1])
+    boxes = layout.near(in_texture, reach + margin, coarse)
+    if factor > 1:
+        boxes = np.repeat(np.repeat(boxes, factor, 0), factor, 1)[:shape[0], :shape[1]]
+    bright = np.flatnonzero((luminance > level) & boxes.reshape(-1))
     rows, cols = np.divmod(bright, shape[1])
-    directions = layout.directions(cols + 0.5, rows + 0.5, shape)
+    directions = _texel_directions(shape, rows, cols)
     if to_texture is not None:  # texture directions -> world: the rotation's transpose
         directions = directions @ np.asarray(to_texture, dtype=np.float64)
     omega = row_omega[rows]
     radiance = (rgb[rows, cols] * scale32).astype(np.float64)
     luminance = radiance @ LUMINANCE
-    centres = np.array([light.direction for light in lights], dtype=np.float64)
-    cube_texel = 2.0 / float(cube_face)  # the cube's largest texel's angle (rad)
-    reach = np.array([REACH_SPREADS * light.spread + REACH_TEXELS * cube_texel
-                      for light in lights])
     nearest = np.empty(len(bright), dtype=np.intp)
     angle = np.empty(len(bright))
-    for start in range(0, len(bright), CHUNK):  # (chunk, lights) at a time
+
+    def assign(start):  # (chunk, lights) at a time; BLAS and ufuncs release the GIL
         cosines = directions[start:start + CHUNK] @ centres.T
         nearest[start:start + CHUNK] = np.argmax(cosines, axis=1)
         angle[start:start + CHUNK] = np.arccos(np.clip(np.take_along_axis(
             cosines, nearest[start:start + CHUNK, None], axis=1)[:, 0], -1.0, 1.0))
+
+    starts = range(0, len(bright), CHUNK)
+    if len(starts) > 1:
+        with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+            list(pool.map(assign, starts))
+    else:
+        for start in starts:
+            assign(start)
     inside = angle <= reach[nearest]
     local = np.flatnonzero(inside)
     nearest = nearest[inside]
+    # Each light's texels in bright order: one stable sort, not a scan per light.
+    order = np.argsort(nearest, kind="stable")
+    bounds = np.searchsorted(nearest[order], np.arange(len(lights) + 1))
     out, indices, values = [], [], []
     for k, light in enumerate(lights):
-        texels = local[nearest == k]  # indices into the bright texels' arrays
+        texels = local[order[bounds[k]:bounds[k + 1]]]  # indices into the bright arrays
         if len(texels) == 0:
             continue
         scale = level / luminance[texels]

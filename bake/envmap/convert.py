@@ -214,59 +214,14 @@ def _source_texel_angle(layout: Layout, shape) -> float:
     return float(np.sqrt(layout.solid_angles(shape).max())) * 2.0
 
 
-def _near_latlong(directions, margin, shape):
-    """(H, W) bool: the lat-long texels of ``shape`` whose centre lies within ``margin``
-    (rad) of any of ``directions`` (n, 3), conservatively (a texel's row band of
-    latitudes and, per row, the longitude span the margin reaches at the band's
-    smallest sine; whole rows where the band reaches a pole)."""
-    height, width = shape
-    d_theta, d_phi = math.pi / height, 2.0 * math.pi / width
-    theta = np.arccos(np.clip(directions[:, 2], -1.0, 1.0))
-    column = np.mod(0.5 - np.arctan2(directions[:, 1], directions[:, 0]) / (2.0 * np.pi),
-                    1.0) * width - 0.5
-    first = np.clip(np.floor((theta - margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
-    last = np.clip(np.ceil((theta + margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
-    low = np.minimum(np.sin(np.clip(theta - margin, 0.0, np.pi)),
-                     np.sin(np.clip(theta + margin, 0.0, np.pi)))
-    polar = (theta - margin <= 0.0) | (theta + margin >= np.pi)
-    with np.errstate(divide="ignore"):
-        span = np.where(polar | (low <= 0.0), np.inf,
-                        np.arcsin(np.minimum(math.sin(min(margin, 0.5 * math.pi))
-                                             / np.maximum(low, 1e-300), 1.0)) / d_phi)
-    span = np.where(span >= 0.5 * math.pi / d_phi, np.inf, span)  # past a quarter turn: all
-    # One (row, start, stop) interval per direction and row of its band, painted
-    # into a difference array along each row (wrapping intervals split in two).
-    rows_per = last - first + 1
-    owner = np.repeat(np.arange(len(theta)), rows_per)
-    rows = first[owner] + (np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per,
-                                                              rows_per))
-    whole = ~np.isfinite(span[owner])
-    near = np.zeros(shape, dtype=bool)
-    near[np.unique(rows[whole])] = True
-    rows, owner = rows[~whole], owner[~whole]
-    start = np.floor(column[owner] - span[owner] - 1.0).astype(np.intp)
-    stop = np.ceil(column[owner] + span[owner] + 1.0).astype(np.intp) + 1  # exclusive
-    full = (stop - start) >= width
-    near[np.unique(rows[full])] = True
-    rows, start, stop = rows[~full], start[~full], stop[~full]
-    marks = np.zeros((height, width + 1), dtype=np.int32)
-    begin, end = np.mod(start, width), np.mod(start, width) + (stop - start)
-    wraps = end > width
-    np.add.at(marks, (rows, begin), 1)
-    np.add.at(marks, (rows[~wraps], end[~wraps]), -1)
-    np.add.at(marks, (rows[wraps], np.full(int(wraps.sum()), width)), -1)
-    np.add.at(marks, (rows[wraps], np.zeros(int(wraps.sum()), dtype=np.intp)), 1)
-    np.add.at(marks, (rows[wraps], end[wraps] - width), -1)
-    near |= np.cumsum(marks, axis=1)[:, :width] > 0
-    return near
-
-
 def convert_changed(converted, image, changed, src, size, *, samples: int | None = None):
     """convert(image, src, "latlong", size, samples=samples) (float32 (size, 2 size, C)),
     given ``converted``, the same conversion of an image that differs from ``image``
     only at the texels where ``changed`` (H, W) bool is set (a probe with its small
     bright lights taken out, against the probe): only the target texels that can
-    read a changed texel are recomputed (:func:`convert_texels`).
+    read a changed texel are recomputed (:func:`convert_texels`). ``converted``
+    may be a function that returns it, called only when the local update is used
+    (not when ``image`` is converted whole).
 
     Conversion is linear and local: a target texel reads its sub-samples (within
     its half diagonal) by bilinear lookups (the four texels around a point, within
@@ -283,13 +238,18 @@ def convert_changed(converted, image, changed, src, size, *, samples: int | None
     source, target = get_layout(src), get_layout("latlong")
     image = source.check_image(image)
     shape = target.shape(size)
-    converted = np.asarray(converted)
     changed = np.asarray(changed, dtype=bool)
-    if converted.shape[:2] != shape or changed.shape != image.shape[:2]:
-        raise BakeError(f"convert_changed: a {converted.shape} conversion and a "
-                        f"{changed.shape} mask for a {image.shape} image at size {size}")
+    if changed.shape != image.shape[:2]:
+        raise BakeError(f"convert_changed: a {changed.shape} mask for a {image.shape} image")
+
+    def original():
+        result = np.asarray(converted() if callable(converted) else converted)
+        if result.shape[:2] != shape:
+            raise BakeError(f"convert_changed: a {result.shape} conversion at size {size}")
+        return result
+
     if not changed.any():
-        return converted.astype(np.float32, copy=True)
+        return original().astype(np.float32, copy=True)
     count = reduction_count(source, image.shape[:2], target, shape)
     reduced_shape = (image.shape[0] >> count, image.shape[1] >> count)
     mask = _reduced_mask(changed, source, count)
@@ -300,9 +260,10 @@ def convert_changed(converted, image, changed, src, size, *, samples: int | None
              + (spacing if source.name == "latlong" else 0.0))
     ys, xs = np.nonzero(mask)
     directions = source.directions(xs + 0.5, ys + 0.5, reduced_shape).reshape(-1, 3)
-    near = _near_latlong(directions, 1.5 * reach, shape)
+    near = target.near(directions, 1.5 * reach, shape)
     if near.mean() > LOCAL_SHARE:
         return convert(image, src, "latlong", size, samples=samples)
+    converted = original()
     far = np.flatnonzero(~near)
     checked = far[np.linspace(0, len(far) - 1, min(CHECK_TEXELS, len(far))).astype(np.intp)]
     chosen = np.concatenate([np.flatnonzero(near), checked])

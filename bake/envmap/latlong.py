@@ -10,6 +10,7 @@ zenith. u = 0.5 is +X, u = 0.25 is +Y, u = 0.75 is -Y. A map of size N has
 shape (H, W) = (N, 2N); any H, W >= 2 is accepted as input.
 """
 
+import math
 
 import numpy as np
 
@@ -146,6 +147,55 @@ class LatLong(Layout):
         fx = (px - x0).astype(np.float32)[None, :, None]
         across = padded[y0] * (1 - fy) + padded[y0 + 1] * fy  # (height, w + 2, C)
         return across[:, x0] * (1 - fx) + across[:, x0 + 1] * fx
+
+    def near(self, directions, margin, shape):
+        """(H, W) bool: the texels of a ``shape`` lat-long image whose centre lies within
+        ``margin`` (rad; one for all, or one per direction (n,)) of any of
+        ``directions`` (n, 3), conservatively (a texel's row band of
+        latitudes and, per row, the longitude span the margin reaches at the band's
+        smallest sine; whole rows where the band reaches a pole)."""
+        height, width = shape
+        d_theta, d_phi = math.pi / height, 2.0 * math.pi / width
+        directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        theta = np.arccos(np.clip(directions[:, 2], -1.0, 1.0))
+        margin = np.broadcast_to(np.asarray(margin, dtype=np.float64), theta.shape)
+        column = np.mod(0.5 - np.arctan2(directions[:, 1], directions[:, 0]) / (2.0 * np.pi),
+                        1.0) * width - 0.5
+        first = np.clip(np.floor((theta - margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
+        last = np.clip(np.ceil((theta + margin) / d_theta - 0.5), 0, height - 1).astype(np.intp)
+        low = np.minimum(np.sin(np.clip(theta - margin, 0.0, np.pi)),
+                         np.sin(np.clip(theta + margin, 0.0, np.pi)))
+        polar = (theta - margin <= 0.0) | (theta + margin >= np.pi)
+        with np.errstate(divide="ignore"):
+            span = np.where(polar | (low <= 0.0), np.inf,
+                            np.arcsin(np.minimum(np.sin(np.minimum(margin, 0.5 * math.pi))
+                                                 / np.maximum(low, 1e-300), 1.0)) / d_phi)
+        span = np.where(span >= 0.5 * math.pi / d_phi, np.inf, span)  # past a quarter turn: all
+        # One (row, start, stop) interval per direction and row of its band, painted
+        # into a difference array along each row (wrapping intervals split in two).
+        rows_per = last - first + 1
+        owner = np.repeat(np.arange(len(theta)), rows_per)
+        rows = first[owner] + (np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per,
+                                                                  rows_per))
+        whole = ~np.isfinite(span[owner])
+        near = np.zeros(shape, dtype=bool)
+        near[np.unique(rows[whole])] = True
+        rows, owner = rows[~whole], owner[~whole]
+        start = np.floor(column[owner] - span[owner] - 1.0).astype(np.intp)
+        stop = np.ceil(column[owner] + span[owner] + 1.0).astype(np.intp) + 1  # exclusive
+        full = (stop - start) >= width
+        near[np.unique(rows[full])] = True
+        rows, start, stop = rows[~full], start[~full], stop[~full]
+        marks = np.zeros((height, width + 1), dtype=np.int32)
+        begin, end = np.mod(start, width), np.mod(start, width) + (stop - start)
+        wraps = end > width
+        np.add.at(marks, (rows, begin), 1)
+        np.add.at(marks, (rows[~wraps], end[~wraps]), -1)
+        np.add.at(marks, (rows[wraps], np.full(int(wraps.sum()), width)), -1)
+        np.add.at(marks, (rows[wraps], np.zeros(int(wraps.sum()), dtype=np.intp)), 1)
+        np.add.at(marks, (rows[wraps], end[wraps] - width), -1)
+        near |= np.cumsum(marks, axis=1)[:, :width] > 0
+        return near
 
     @staticmethod
     def _prefilter_rows(image, spacing):

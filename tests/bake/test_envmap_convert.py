@@ -304,3 +304,19 @@ def test_a_conversion_updated_from_the_wrong_image_is_converted_whole():
     np.testing.assert_allclose(got, convert(changed, "cube", "latlong", 64), rtol=1e-6)
     with pytest.raises(BakeError):
         convert_changed(wrong, changed, mask[:, :10], "cube", 64)
+
+
+def test_a_change_over_most_of_the_map_converts_it_whole_without_the_original():
+    """When most of the target is near changed texels, convert_changed converts the
+    changed image itself and never asks for the original's conversion (a function
+    that would compute it for nothing)."""
+    from bake.envmap.convert import convert_changed
+
+    picks = [(y, x) for y in range(0, 16, 2) for x in range(0, 96, 3)]
+    image, changed, mask = _changed("cube", 16, picks, seed=3)
+
+    def original():
+        raise AssertionError("the original's conversion was asked for")
+
+    got = convert_changed(original, changed, mask, "cube", 16)
+    np.testing.assert_allclose(got, convert(changed, "cube", "latlong", 16), rtol=1e-6)

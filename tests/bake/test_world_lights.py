@@ -292,3 +292,45 @@ def test_a_large_world_s_lights_are_found_on_its_mip_level_and_measured_on_its_t
     kept = np.sum(residual.astype(np.float64) * omega, axis=(0, 1)) + lights[0].irradiance
     np.testing.assert_allclose(kept, total, rtol=1e-5)
     assert residual[disc].max() < 0.01 * 30000.0  # the sun is taken whole
+
+
+@pytest.mark.parametrize(("height", "rotation", "alpha"), [
+    (256, None, 0.3 ** 2),            # tiles of GGX 0.3
+    (256, (0.3, -0.2, 1.1), 0.3 ** 2),  # a turned world: the lights' boxes in its frame
+    (1536, None, 0.6 ** 2),           # boxes found on a grid 3 x coarser than the world
+])
+def test_lowered_takes_each_bright_texel_within_reach_of_its_nearest_light(
+        height, rotation, alpha):
+    """lowered against its definition computed directly for every bright texel of the
+    world: a texel brighter than the threshold is taken by its nearest light
+    when within that light's reach (REACH_SPREADS spreads and REACH_TEXELS cube
+    texels). lowered leaves out bright texels outside every light's box before
+    computing any direction; the texels taken must be exactly the same."""
+    world = _world(height)
+    world[: height // 8] *= 40.0  # a bright band at the zenith: bright, far from the sun
+    mapping = WorldMapping(rotation=rotation or (0.0, 0.0, 0.0))
+    to_texture = world_lights.rotation_of(mapping) if rotation else None
+    face = 24
+    cube = convert(world, "latlong", "cube", face, transform=mapping.texture_directions)
+    _, lights = probe_lights.extract_kept(cube, "cube", alpha)
+    lights = lights[:3]  # a few lights: many bright texels are nobody's
+    threshold = lights[0].threshold
+    lights = [light for light in lights if light.threshold == threshold]
+    indices, values, measured = world_lights.lowered(lights, world, face, to_texture)
+    layout = get_layout("latlong")
+    luminance = world.reshape(-1, 3).astype(np.float64) @ LUMINANCE
+    omega = layout.solid_angles(world.shape[:2]).reshape(-1)
+    mean = float(np.sum(np.maximum(luminance, 0.0) * omega) / (4.0 * np.pi))
+    bright = np.flatnonzero(luminance > threshold * mean)
+    directions = layout.texel_directions(world.shape[:2]).reshape(-1, 3)[bright]
+    if to_texture is not None:
+        directions = directions @ np.asarray(to_texture)
+    centres = np.array([light.direction for light in lights])
+    cosines = directions @ centres.T
+    nearest = np.argmax(cosines, axis=1)
+    reach = np.array([world_lights.REACH_SPREADS * light.spread
+                      + world_lights.REACH_TEXELS * 2.0 / face for light in lights])
+    inside = np.arccos(np.clip(cosines.max(axis=1), -1.0, 1.0)) <= reach[nearest]
+    assert 0 < inside.sum() < len(bright)  # some bright texels are nobody's
+    np.testing.assert_array_equal(np.sort(indices), np.sort(bright[inside]))
+    assert len(measured) == len(set(nearest[inside]))
