@@ -59,7 +59,7 @@ import numpy as np
 
 from . import probe_lights
 from .envmap import convert, get_layout
-from .envmap.convert import CHECK_TEXELS, CHECK_TOLERANCE, LOCAL_SHARE
+from .envmap.convert import CHECK_TEXELS, CHECK_TOLERANCE, LOCAL_SHARE, reduction_count
 from .errors import BakeError
 
 __all__ = ["from_world", "lowered", "reduced_world", "reduced_residual", "residual_cube",
@@ -78,6 +78,9 @@ LUMINANCE = probe_lights.LUMINANCE
 TENT_MOMENTS = 2.0
 #: Bright texels compared with the lights at a time (bounds the (chunk, lights) product).
 CHUNK = 65536
+#: A lobe's lights are measured on a box-reduced level of a large world when its
+#: tiles still span this many of that level's texels (measured_level).
+TILE_TEXELS = 8.0
 #: split_latlong finds the lights on a copy of a larger image with this many rows.
 EXTRACT_ROWS = 1024
 
@@ -339,30 +342,67 @@ def _split_for(probe, layout, ax, ay, world, mapping, world_digest):
            round(float(ax if ay is None else ay), 9))
     maps = probe_maps(probe, layout)
 
-    def compute():
-        from .envmap.convert import reduction_count
+    face = int(np.shape(probe)[0])
+    count = reduction_count(get_layout("latlong"), world.shape[:2], get_layout("cube"),
+                            (face, 6 * face))
+    # The level the lights are measured on: the world itself, or the coarsest of the
+    # box-reduced levels the conversion reads whose texel the lobe's tiles still
+    # span TILE_TEXELS times (measured_level).
+    depth = measured_level(world.shape, count, mean_alpha)
 
-        face = int(np.shape(probe)[0])
-        indices, values, measured = lowered(lights, world, face, rotation, strength)
+    def compute():
         transform = mapping.texture_directions \
             if mapping is not None and mapping.moves_directions else None
-        count = reduction_count(get_layout("latlong"), world.shape[:2], get_layout("cube"),
-                                (face, 6 * face))
         if count == 0:
+            indices, values, measured = lowered(lights, world, face, rotation, strength)
             world_residual = np.array(world[..., :3], dtype=np.float32) * np.float32(strength)
             world_residual.reshape(-1, 3)[indices] = values
-        else:
-            # The conversion reads the world box-reduced ``count`` times: reduced once
-            # per probe and world, each lobe's residual is that with the parents of
-            # its lowered texels recomputed (no copy of the world).
-            levels = maps.kept(("reduced world", world_digest, strength, count),
-                               lambda: reduced_world(world, strength, count))
+            return residual_cube(probe, lights, world_residual, transform), measured
+        # The conversion reads the world box-reduced ``count`` times: reduced once
+        # per probe and world, each lobe's residual is that with the parents of
+        # its lowered texels recomputed (no copy of the world).
+        levels = maps.kept(("reduced world", world_digest, strength, count),
+                           lambda: reduced_world(world, strength, count))
+        if depth == 0:
+            indices, values, measured = lowered(lights, world, face, rotation, strength)
             world_residual = reduced_residual(levels, world, strength, indices, values)
+        else:  # the levels hold the Strength already
+            source = levels[depth - 1][0]
+            indices, values, measured = lowered(lights, source, face, rotation, 1.0)
+            if depth < count:
+                world_residual = reduced_residual(levels[depth:], source, 1.0, indices, values)
+            else:
+                world_residual = source.copy()
+                world_residual.reshape(-1, 3)[indices] = values
         return residual_cube(probe, lights, world_residual, transform), measured
 
-    cube, measured = maps.kept(key, compute)
+    cube, measured = maps.kept(key + (depth,), compute)
+    rows = int(np.shape(world)[0])
+    where = f"the world's {rows}-row image" if depth == 0 else \
+        (f"the world's {rows}-row image box-reduced to {rows >> depth} rows (the lobe's "
+         f"tiles span {TILE_TEXELS:g}+ of its texels)")
     return cube, measured, (f"{len(measured)} of the probe's {len(lights)} lights "
-                            f"re-measured on the world's {np.shape(world)[0]}-row image")
+                            f"re-measured on {where}")
+
+
+def measured_level(world_shape, count, alpha) -> int:
+    """How many times the (H, 2H) world is box-reduced before a lobe's lights are
+    measured on it: the most, up to the ``count`` reductions bake.envmap.convert
+    applies for the probe (those levels are made anyway), at which the lobe's
+    tiles (probe_lights.TILE_FRACTION ``alpha``, the geometric mean alpha) still
+    span TILE_TEXELS texels (pi / rows at the equator); 0 (the world's own texels)
+    when none does. The reduction is exact in energy, so the split stays exact;
+    what moves is the share of a bright region's edge texels that a light takes
+    (sunset.exr repeated 8 x 8 to 8192 x 4096, 128 px faces: at GGX 0.3 and 0.6,
+    measured on 2048 and 1024 rows, the lights' energy moved 0.006% and 0.045%
+    of the probe's, their directions 0.01 degrees, against 0.50 -> 0.09 s and
+    1.46 -> 0.06 s for measuring them)."""
+    rows = int(world_shape[0])
+    tile = probe_lights.TILE_FRACTION * float(alpha)
+    depth = 0
+    while depth < count and tile >= TILE_TEXELS * math.pi / (rows >> (depth + 1)):
+        depth += 1
+    return depth
 
 
 #: residual_cube converts the whole world again when more than this share of the

@@ -42,7 +42,12 @@ from ..glossy_addon.spatial import (
     map_variants,
     split_plan,
 )
-from ..glossy_addon.world import WorldNotReadable, image_pixels, world_environment
+from ..glossy_addon.world import (
+    WorldNotReadable,
+    image_pixels,
+    world_digest,
+    world_environment,
+)
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
 #: sizes): they depend on the BRDF alone, not on the probe, so re-bakes and
@@ -167,7 +172,7 @@ def world_of(scene, meta):
     except (WorldNotReadable, ValueError) as error:
         return None, f"the world can no longer be read ({error})"
     if mapping.to_meta() != meta.get("world_mapping") or \
-            world_lights.digest(pixels) != meta["world_digest"]:
+            world_digest(image, pixels) != meta["world_digest"]:
         return None, "the world changed since the capture: capture the probe again"
     return (pixels, mapping, meta["world_digest"]), None
 

@@ -6,7 +6,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime, world_lights
+from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps
 from ..glossy_addon import ownership
@@ -19,6 +19,7 @@ from ..glossy_addon.world import (
     WorldNotReadable,
     find_environment_image,
     image_pixels,
+    world_digest,
     world_environment,
 )
 
@@ -200,7 +201,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             image, mapping = world_environment(context.scene.world)
             meta["world_mapping"] = mapping.to_meta()
             # which image: the bake re-measures the probe's lights on its texels
-            meta["world_digest"] = world_lights.digest(image_pixels(image))
+            meta["world_digest"] = world_digest(image)
         exr.write(path, cube, meta)
         settings.probe_path = str(path)
         settings.probe_owner = name
@@ -215,7 +216,9 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         Environment Texture's image through the Mapping node and Strength."""
         image, mapping = world_environment(context.scene.world)
         transform = mapping.texture_directions if mapping.moves_directions else None
-        cube = envmap.convert(image_pixels(image), "latlong", "cube", size, transform=transform)
+        pixels = image_pixels(image)
+        world_digest(image, pixels)  # kept for _finish and the bake (unchanged image)
+        cube = envmap.convert(pixels, "latlong", "cube", size, transform=transform)
         if mapping.strength != 1.0:
             cube *= np.float32(mapping.strength)
         return cube

@@ -334,3 +334,36 @@ def test_lowered_takes_each_bright_texel_within_reach_of_its_nearest_light(
     assert 0 < inside.sum() < len(bright)  # some bright texels are nobody's
     np.testing.assert_array_equal(np.sort(indices), np.sort(bright[inside]))
     assert len(measured) == len(set(nearest[inside]))
+
+
+def test_a_wide_lobe_s_lights_are_measured_on_a_reduced_level_of_a_large_world():
+    """A 1024-row world seen by a 16 px cube: the conversion reduces it four times
+    (to 64 rows). For GGX 0.8 (tiles of 0.16 rad) the lights are measured on the
+    256-row level, the coarsest whose texels the tiles span 8 times
+    (measured_level); the split stays exact in energy (the residual cube plus the
+    lights hold the probe's energy, to the resampling's 0.2% as in the test
+    above) and the lights' energy is within 0.1% of the probe's of what the
+    world's own texels give (from_world), their directions within a quarter
+    degree. GGX 0.3's tiles (0.022 rad) span fewer than 8 texels of every level:
+    measured on the world itself."""
+    world = _world(1024, sun_radius=0.05, sun_radiance=50.0)
+    face = 16
+    cube = convert(world, "latlong", "cube", face)
+    assert world_lights.measured_level(world.shape, 4, 0.8 ** 2) == 2
+    assert world_lights.measured_level(world.shape, 4, 0.3 ** 2) == 0
+    alpha = 0.8 ** 2
+    _, plain = probe_lights.extract_kept(cube, "cube", alpha)
+    residual, taken, why = world_lights.split_for(cube, "cube", alpha, world=world)
+    assert "box-reduced to 256 rows" in why, why
+    energy = _energy(residual, "cube") + np.sum([light.irradiance for light in taken], axis=0)
+    np.testing.assert_allclose(energy, _energy(cube, "cube"), rtol=0.002)
+    _, full = world_lights.from_world(plain, world, face)
+    assert len(full) == len(taken)
+    probe_energy = float(_energy(cube, "cube") @ LUMINANCE)
+    for light, measured in zip(taken, full, strict=True):
+        assert abs(float((light.irradiance - measured.irradiance) @ LUMINANCE)) \
+            < 1e-3 * probe_energy
+        assert np.degrees(np.arccos(min(float(light.direction @ measured.direction), 1.0))) \
+            < 0.25
+    narrow = world_lights.split_for(cube, "cube", 0.3 ** 2, world=world)
+    assert "re-measured on the world's 1024-row image" in narrow[2], narrow[2]

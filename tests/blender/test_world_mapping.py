@@ -54,6 +54,12 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
     assert lit["capture"] == lit["bake"] == lit["turned_bake"] == ["FINISHED"], lit
     assert "re-measured on the world's 512-row image" in lit["reason"], lit["reason"]
     assert "the world changed since the capture" in lit["turned_reason"], lit["turned_reason"]
+    # The Mapping turned back: the world is the captured one again; then its image's
+    # pixels edited in Blender: changed, though its file and name are not.
+    assert lit["restored_bake"] == lit["edited_bake"] == ["FINISHED"], lit
+    assert "re-measured on the world's 512-row image" in lit["restored_reason"], \
+        lit["restored_reason"]
+    assert "the world changed since the capture" in lit["edited_reason"], lit["edited_reason"]
     # An 8-bit sRGB image is decoded as Cycles decodes it: its blue channel is
     # 128/255 everywhere, 0.2158 in linear light (0.502 as stored).
     png = r["png"]

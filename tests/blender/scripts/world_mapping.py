@@ -124,6 +124,21 @@ mapping.inputs["Rotation"].default_value[2] += math.radians(10.0)
 shiny.glossy.roughness = 0.31  # a change the bake acts on
 report["world_lights"]["turned_bake"] = sorted(bpy.ops.glossy.bake_materials())
 report["world_lights"]["turned_reason"] = shiny.glossy.size_reason
+# The world's image edited in place (its pixels written, as painting does): the
+# bake must hash it again (the session keeps digests of unedited images only).
+mapping.inputs["Rotation"].default_value[2] -= math.radians(10.0)
+shiny.glossy.roughness = 0.3
+report["world_lights"]["restored_bake"] = sorted(bpy.ops.glossy.bake_materials())
+report["world_lights"]["restored_reason"] = shiny.glossy.size_reason
+world_image = next(n for n in bpy.context.scene.world.node_tree.nodes
+                   if n.type == "TEX_ENVIRONMENT").image
+edited = np.empty(len(world_image.pixels), dtype=np.float32)
+world_image.pixels.foreach_get(edited)
+edited[:4 * 64] *= 3.0  # a strip of the bottom row
+world_image.pixels.foreach_set(edited)
+shiny.glossy.roughness = 0.31
+report["world_lights"]["edited_bake"] = sorted(bpy.ops.glossy.bake_materials())
+report["world_lights"]["edited_reason"] = shiny.glossy.size_reason
 bpy.data.objects.remove(sphere)
 
 # An 8-bit sRGB PNG world (stored values 0.2-0.8): Cycles decodes it to linear.
