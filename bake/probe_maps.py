@@ -185,21 +185,26 @@ def _digest(image, layout):
     return (layout, data.shape, hashlib.blake2b(data.tobytes(), digest_size=16).hexdigest())
 
 
-def probe_maps(image, layout) -> ProbeMaps:
-    """The shared :class:`ProbeMaps` of this probe content (made on first use)."""
+def _cached(image, layout, make) -> ProbeMaps:
+    """The cached :class:`ProbeMaps` of this image content, or ``make()``'s, cached."""
     key = _digest(image, layout)
     with _cache_lock:
         maps = _cache.get(key)
         if maps is not None:
             _cache.move_to_end(key)
             return maps
-    maps = ProbeMaps(np.asarray(image, dtype=np.float32), layout)
+    maps = make()
     with _cache_lock:
         maps = _cache.setdefault(key, maps)
         _cache.move_to_end(key)
         while len(_cache) > CACHE_PROBES:
             _cache.popitem(last=False)
     return maps
+
+
+def probe_maps(image, layout) -> ProbeMaps:
+    """The shared :class:`ProbeMaps` of this probe content (made on first use)."""
+    return _cached(image, layout, lambda: ProbeMaps(np.asarray(image, dtype=np.float32), layout))
 
 
 def residual_maps(residual, layout, probe) -> ProbeMaps:
@@ -209,20 +214,8 @@ def residual_maps(residual, layout, probe) -> ProbeMaps:
     recomputed only near the changed texels, so the materials of one probe, each
     with its own lights, share the probe's conversions. :func:`probe_maps` of the
     same residual returns it after."""
-    key = _digest(residual, layout)
-    with _cache_lock:
-        maps = _cache.get(key)
-        if maps is not None:
-            _cache.move_to_end(key)
-            return maps
-    parent = probe_maps(probe, layout)
-    maps = ProbeMaps(np.asarray(residual, dtype=np.float32), layout, parent=parent)
-    with _cache_lock:
-        maps = _cache.setdefault(key, maps)
-        _cache.move_to_end(key)
-        while len(_cache) > CACHE_PROBES:
-            _cache.popitem(last=False)
-    return maps
+    return _cached(residual, layout, lambda: ProbeMaps(
+        np.asarray(residual, dtype=np.float32), layout, parent=probe_maps(probe, layout)))
 
 
 def clear_cache():
