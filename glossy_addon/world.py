@@ -78,6 +78,25 @@ def _pixels_signature(image):
             stat.st_size, stat.st_mtime_ns)
 
 
+#: The last unedited world image's pixels read this session: (signature, pixels).
+_PIXELS: list = [None, None]
+
+
+def world_pixels(image) -> np.ndarray:
+    """:func:`image_pixels` of ``image``, read-only, kept for the session while the image
+    is unedited (:func:`_pixels_signature`; only the last image read, an 8192 x 4096
+    world's 400 MB): the capture reads the world once for its detail, its cube and
+    its digest, and the bake after it (which measures the lights on the world's
+    texels) does not read it again (0.5-1 s for an 8k world here)."""
+    signature = _pixels_signature(image)
+    if signature is not None and _PIXELS[0] == signature:
+        return _PIXELS[1]
+    pixels = image_pixels(image)
+    pixels.flags.writeable = False
+    _PIXELS[:] = [signature, pixels] if signature is not None else [None, None]
+    return pixels
+
+
 def world_digest(image, pixels=None) -> str:
     """bake.world_lights.digest of ``image``'s pixels (:func:`image_pixels`, read here
     when ``pixels`` is None), kept for the session by :func:`_pixels_signature`:
@@ -89,7 +108,7 @@ def world_digest(image, pixels=None) -> str:
     if signature is not None and signature in _DIGESTS:
         _DIGESTS.move_to_end(signature)
         return _DIGESTS[signature]
-    found = world_lights.digest(image_pixels(image) if pixels is None else pixels)
+    found = world_lights.digest(world_pixels(image) if pixels is None else pixels)
     if signature is not None:
         _DIGESTS[signature] = found
         while len(_DIGESTS) > _DIGESTS_KEPT:

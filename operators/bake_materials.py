@@ -44,9 +44,9 @@ from ..glossy_addon.spatial import (
 )
 from ..glossy_addon.world import (
     WorldNotReadable,
-    image_pixels,
     world_digest,
     world_environment,
+    world_pixels,
 )
 
 #: Factorizations of this session by (spec, parameterization, method, terms,
@@ -168,7 +168,7 @@ def world_of(scene, meta):
                      "lights on the world's texels"
     try:
         image, mapping = world_environment(scene.world)
-        pixels = image_pixels(image)
+        pixels = world_pixels(image)
     except (WorldNotReadable, ValueError) as error:
         return None, f"the world can no longer be read ({error})"
     if mapping.to_meta() != meta.get("world_mapping") or \

@@ -18,9 +18,9 @@ from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.world import (
     WorldNotReadable,
     find_environment_image,
-    image_pixels,
     world_digest,
     world_environment,
+    world_pixels,
 )
 
 MIN_RESOLUTION, MAX_RESOLUTION = 8, 4096
@@ -103,7 +103,7 @@ def _world_detail_steps(context, face, reason, detail, cache):
             # The pixels through bpy here; the measuring (pure NumPy, up to a minute for
             # a 4096 x 2048 world) on a worker thread, so the UI stays responsive.
             cache[key] = yield from background_steps(probe_detail.world_face_steps(
-                image_pixels(image), width, face, cap))
+                world_pixels(image), width, face, cap))
         except (BakeError, ValueError) as error:  # e.g. NaN texels: the lobe rule stands
             cache[key] = str(error)
     if isinstance(cache[key], str):
@@ -216,7 +216,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         Environment Texture's image through the Mapping node and Strength."""
         image, mapping = world_environment(context.scene.world)
         transform = mapping.texture_directions if mapping.moves_directions else None
-        pixels = image_pixels(image)
+        pixels = world_pixels(image)
         world_digest(image, pixels)  # kept for _finish and the bake (unchanged image)
         cube = envmap.convert(pixels, "latlong", "cube", size, transform=transform)
         if mapping.strength != 1.0:

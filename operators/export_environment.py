@@ -17,8 +17,8 @@ from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.world import (
     WorldNotReadable,
     find_environment_image,
-    image_pixels,
     world_environment,
+    world_pixels,
 )
 
 
@@ -63,7 +63,7 @@ class GLOSSY_OT_export_environment(bpy.types.Operator):
         folder = output_folder()
         stem = bpy.path.clean_name(image.name.rsplit(".", 1)[0])
         path = folder / f"{stem}_{layout}{size}.exr"
-        pixels = image_pixels(image)
+        pixels = world_pixels(image)
         envmap.get_layout("latlong").check_image(pixels)
         try:  # the world as it renders: its Mapping node and Strength (as World Only)
             mapping = world_environment(context.scene.world)[1]
