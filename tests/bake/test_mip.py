@@ -105,3 +105,32 @@ def test_bad_pyramid_requests():
     bad[0, 0, 0] = np.inf
     with pytest.raises(BakeError, match="NaN or infinite"):
         pyramid(bad, "cube")
+
+
+@pytest.mark.parametrize("height", [2, 64, 1024])
+def test_the_lat_long_box_reduction_is_the_solid_angle_weighted_mean(height):
+    """reduce_latlong (by row weights, in blocks of rows on two threads from 1024 rows
+    up) against its definition: each parent the solid-angle-weighted mean of its
+    four children, its solid angle their sum, computed directly in float64 from the
+    texels' exact solid angles (LatLong.solid_angles)."""
+    from bake.envmap.mip import _REDUCE_BLOCK_TEXELS, reduce_latlong
+
+    width = 2 * height
+    rng = np.random.default_rng(height)
+    image = (rng.random((height, width, 3)) ** 4 * 1e3).astype(np.float32)
+    omega = get_layout("latlong").solid_angles((height, width)).astype(np.float64)
+    weighted = image.astype(np.float64) * omega[..., None]
+    parent_power = sum(weighted[i::2, j::2] for i in (0, 1) for j in (0, 1))
+    parent_omega = sum(omega[i::2, j::2] for i in (0, 1) for j in (0, 1))
+    expected = parent_power / parent_omega[..., None]
+    if height == 1024:
+        assert height // 2 > _REDUCE_BLOCK_TEXELS // width  # several blocks of rows
+    parent, row_omega = reduce_latlong(image)
+    assert parent.shape == (height // 2, height, 3) and parent.dtype == np.float32
+    np.testing.assert_allclose(row_omega, parent_omega[:, 0], rtol=1e-12)
+    # float32 children and row weights: within a few float32 roundings of the mean.
+    np.testing.assert_allclose(parent, expected, rtol=3e-7 * 8, atol=0)
+    # Reduced again from its own row solid angles, as bake.envmap.convert chains it.
+    grand, _ = reduce_latlong(parent, row_omega)
+    np.testing.assert_allclose(grand, reduce_latlong(np.ascontiguousarray(parent))[0],
+                               rtol=1e-6)
