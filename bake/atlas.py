@@ -33,7 +33,10 @@ def storage_precision(image) -> str:
     GPU texture Blender makes anyway), else ``float32``: a probe brighter than a half
     float holds (a sun of 1e5) keeps its map 32-bit rather than turning it to inf."""
     values = np.asarray(image)
-    return "half" if values.size and float(np.abs(values).max()) <= HALF_MAX else "float32"
+    # The largest magnitude from max and min (no |values| copy of a 57 MB atlas); NaN
+    # compares false, so it keeps float32 as before.
+    return "half" if values.size and max(float(values.max()), -float(values.min())) \
+        <= HALF_MAX else "float32"
 
 
 def _pad(image):

@@ -136,10 +136,12 @@ def _unpredict_deinterleave(buffer: np.ndarray) -> bytes:
 
 def _interleave_predict(data: bytes) -> bytes:
     raw = np.frombuffer(data, np.uint8)
-    split = np.concatenate([raw[0::2], raw[1::2]]).astype(np.int16)
+    split = np.concatenate([raw[0::2], raw[1::2]])
     predicted = split.copy()
-    predicted[1:] = (split[1:] - split[:-1] + 128) & 0xFF
-    return predicted.astype(np.uint8).tobytes()
+    # (d_i - d_(i-1) + 128) mod 256, which uint8 arithmetic wraps to by itself.
+    np.subtract(split[1:], split[:-1], out=predicted[1:])
+    predicted[1:] += np.uint8(128)
+    return predicted.tobytes()
 
 
 def _rle_decode(data: bytes, expected: int) -> np.ndarray:
