@@ -13,6 +13,12 @@ Y = 0.2126 R + 0.7152 G + 0.0722 B, Rec. 709 / linear sRGB):
 - PSNR (dB)            10 log10( peak^2 / mean (t - r)^2 ), peak = max r
 - relative error       |t - r| / max(r, floor) per pixel, floor = 1% of mean r
                        (so near-black pixels do not dominate); its percentiles
+- by view elevation    per band [lo, hi) of n.v (the last band closed at 1): the
+                       band's pixels, the relative RMS of luminance over them
+                       and the band's share of the whole mask's squared error,
+                       sum_band (t - r)^2 / sum_mask (t - r)^2 (the shares sum
+                       to 1): where on the object the error is (grazing views,
+                       the silhouette, are where lookup methods break)
 - noise of a mean      two renders a, b with different seeds: the relative RMS
                        of their mean (a + b)/2 against the converged image is
                        sqrt( sum (a - b)^2 / 4 / sum ((a + b)/2)^2 )
@@ -29,10 +35,13 @@ from . import preview
 
 __all__ = ["LUMINANCE", "luminance", "relative_rms", "bias", "psnr", "relative_errors",
            "percentiles", "noise_of_mean", "flip", "flip_available", "erode", "compare",
-           "signed_heatmap", "absolute_heatmap"]
+           "by_view", "VIEW_BANDS", "signed_heatmap", "absolute_heatmap"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 PERCENTILES = (50, 90, 99)
+#: Band edges of n.v for :func:`by_view`: those of the Hybrid's error table
+#: (bake/hybrid_errors.json) and 1, from grazing (0) to facing the camera (1).
+VIEW_BANDS = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 0.85, 1.0)
 
 
 def luminance(image) -> np.ndarray:
@@ -145,6 +154,35 @@ def erode(mask, pixels=1) -> np.ndarray:
         mask = (padded[1:-1, 1:-1] & padded[:-2, 1:-1] & padded[2:, 1:-1]
                 & padded[1:-1, :-2] & padded[1:-1, 2:])
     return mask
+
+
+def by_view(test, reference, mask, cos_view, edges=VIEW_BANDS) -> list:
+    """Where the error is, by view elevation: one dict per band [lo, hi) of
+    ``cos_view`` (H, W: n.v per pixel, clipped to [0, 1]; the last band includes
+    its upper edge) with the band's ``pixels`` of the mask, the ``relative_rms`` of
+    luminance over them (None for a band with no pixel or a black reference) and
+    its ``error_share``: the band's sum of (t - r)^2 over the whole mask's (the
+    shares sum to 1; all 0 when test equals reference)."""
+    t, r = _masked(luminance(test), luminance(reference), mask)
+    cos_view = np.asarray(cos_view, dtype=np.float64)
+    if cos_view.shape != np.asarray(mask).shape:
+        raise ValueError(f"cos_view {cos_view.shape} does not match the mask "
+                         f"{np.asarray(mask).shape}")
+    edges = np.asarray(edges, dtype=np.float64)
+    mu = np.clip(cos_view[np.asarray(mask, bool)], edges[0], edges[-1])
+    band = np.clip(np.searchsorted(edges, mu, side="right") - 1, 0, len(edges) - 2)
+    squares = (t - r) ** 2
+    total = float(np.sum(squares))
+    out = []
+    for index in range(len(edges) - 1):
+        inside = band == index
+        energy = float(np.sum(r[inside] ** 2))
+        out.append({"from": float(edges[index]), "to": float(edges[index + 1]),
+                    "pixels": int(inside.sum()),
+                    "relative_rms": float(np.sqrt(np.sum(squares[inside]) / energy))
+                    if inside.any() and energy > 0 else None,
+                    "error_share": float(np.sum(squares[inside]) / total) if total > 0 else 0.0})
+    return out
 
 
 def compare(test, reference, mask) -> dict:

@@ -17,6 +17,10 @@ Per object, from images (H, W, 3) of the whole frame and the object's mask
 - with two Cycles seeds, each method's ``relative_rms_per_seed``: its relative
   RMS against each seed's render alone, so :func:`ordering` can tell whether
   one figure being below another holds whichever seed is the truth.
+- with the pixels' n.v (``cos_view``), each method's ``by_view``
+  (:func:`bake.metrics.by_view`): its error per band of view elevation and each
+  band's share of it, so the report shows whether the error sits at grazing
+  views (the silhouette) or facing the camera; report.md tabulates it per object.
 
 The truth is flagged too noisy when its noise is not below a quarter of the
 smallest error reported against it.
@@ -45,11 +49,13 @@ METHOD_TITLES = {
 NOISE_FRACTION = 0.25
 
 
-def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
+def evaluate_object(renders: dict, mask, cycles_seeds=None, cos_view=None) -> dict:
     """Figures of one object (JSON-ready).
 
     renders: {method: (H, W, 3) image or None}; cycles_seeds: (a, b) Cycles
-    renders with different seeds, or None when Cycles cannot render the BRDF.
+    renders with different seeds, or None when Cycles cannot render the BRDF;
+    cos_view: (H, W) n.v of each pixel (the shading normal and the direction to
+    the camera), or None for no ``by_view`` figures.
     """
     mask = np.asarray(mask, bool)
     out = {"pixels": int(mask.sum()), "methods": {}}
@@ -66,6 +72,8 @@ def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
         if image is None or (method == "reference" and out["truth"] == "reference"):
             continue
         out["methods"][method] = metrics.compare(image, truth, mask)
+        if cos_view is not None:
+            out["methods"][method]["by_view"] = metrics.by_view(image, truth, mask, cos_view)
         if cycles_seeds is not None:
             out["methods"][method]["relative_rms_per_seed"] = [
                 metrics.relative_rms(image, seed, mask) for seed in cycles_seeds]
@@ -73,6 +81,9 @@ def evaluate_object(renders: dict, mask, cycles_seeds=None) -> dict:
             and out["truth"] == "cycles":
         out["glossy_vs_reference"] = metrics.compare(renders["eevee_glossy"],
                                                      renders["reference"], mask)
+        if cos_view is not None:
+            out["glossy_vs_reference"]["by_view"] = metrics.by_view(
+                renders["eevee_glossy"], renders["reference"], mask, cos_view)
     errors = [m["relative_rms"] for m in out["methods"].values()]
     out["truth_too_noisy"] = bool(out["cycles_noise"] is not None and errors
                                   and out["cycles_noise"] > NOISE_FRACTION * min(errors))
@@ -212,7 +223,34 @@ def markdown(report: dict) -> str:
             lines.append(f"| {entry['object']} | | | reference | | Glossy vs reference | "
                          f"{_percent(g['relative_rms'])} | {g['bias']:.3f} | {g['psnr_db']:.1f}"
                          f" | {_percent(g['relative_error']['p90'])} | - |")
+    for entry in report["objects"]:
+        lines += _by_view_lines(entry)
     return "\n".join(lines) + "\n"
+
+
+def _by_view_lines(entry) -> list:
+    """report.md's table of one object's error by view elevation (none without
+    ``by_view`` figures): per band of n.v that holds pixels, their count and each
+    method's relative RMS with the band's share of that method's squared error."""
+    figures = entry["figures"]
+    methods = [(METHOD_TITLES[name], m["by_view"]) for name, m in figures["methods"].items()
+               if "by_view" in m]
+    if "by_view" in figures.get("glossy_vs_reference", {}):
+        methods.append(("Glossy vs reference", figures["glossy_vs_reference"]["by_view"]))
+    if not methods:
+        return []
+    lines = ["", f"{entry['object']} by view elevation (n.v; 0 at the silhouette): relative "
+                 f"RMS in the band (the band's share of the object's squared error)", "",
+             "| n.v | pixels | " + " | ".join(title for title, _ in methods) + " |",
+             "|---|---|" + "---|" * len(methods)]
+    for index, band in enumerate(methods[0][1]):
+        if not band["pixels"]:
+            continue
+        cells = [f"{_percent(bands[index]['relative_rms'])} "
+                 f"({100 * bands[index]['error_share']:.0f}%)" for _, bands in methods]
+        lines.append(f"| {band['from']:.2f}-{band['to']:.2f} | {band['pixels']} | "
+                     + " | ".join(cells) + " |")
+    return lines
 
 
 def _atomic_text(path: Path, text: str):

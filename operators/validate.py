@@ -175,6 +175,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             width, height = self._size
             self._index, self._positions, self._normals = glue.pixel_geometry(
                 scene, scene.camera, width, height, [obj for obj, _ in self._targets])
+            # Toward the camera along each pixel's centre ray: exact for perspective
+            # and orthographic cameras alike.
+            self._views = -glue.camera_rays(scene, scene.camera, width, height)[1]
         self._timings[name] = time.perf_counter() - start
         return f"rendered {message} in {self._timings[name]:.1f} s"
 
@@ -186,7 +189,6 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         chunk of pixels)."""
         start = time.perf_counter()
         obj, materials = self._targets[index]
-        camera = bpy.context.scene.camera.matrix_world.translation
         probe, meta = exr.read(bpy.path.abspath(obj.glossy.probe_path))
         probe = probe[..., :3]
         layout = meta.get("layout", "cube")
@@ -199,8 +201,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         if index_pass.any():
             normals = self._normals[index_pass]
             normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-            views = np.asarray(camera)[None, :] - self._positions[index_pass]
-            views /= np.maximum(np.linalg.norm(views, axis=1, keepdims=True), 1e-30)
+            views = self._views[index_pass]
             cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
             fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
                 if material.glossy.fresnel_ior > 1.0 else None
@@ -243,6 +244,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         exr.write(staging / "reference.exr", reference_image.astype(np.float32),
                   {"generator": "glossy-validate", "kind": "reference"})
         masks = {}
+        cos_view = self._cos_view()
         entries, sheets = [], {}
         date = datetime.datetime.now().isoformat(timespec="seconds")
         for index, (obj, materials) in enumerate(self._targets):
@@ -261,7 +263,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                     renders["eevee_native_careful"] = self._images["eevee_native_careful"]
             seeds = (self._images["cycles_seed1"], self._images["cycles_seed2"]) \
                 if has_truth else None
-            figures = validation.evaluate_object(renders, mask, seeds)
+            figures = validation.evaluate_object(renders, mask, seeds, cos_view)
             truth = 0.5 * (seeds[0] + seeds[1]) if seeds else renders["reference"]
             sheet_name = f"sheet_{bpy.path.clean_name(obj.name)}.png"
             sheets[sheet_name] = validation.object_sheet(renders, truth, mask, figures,
@@ -273,6 +275,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             self._store(materials, figures, date)
         if not entries:
             raise BakeError("none of the selected objects is visible from the camera")
+        masks["cos_view"] = cos_view  # the n.v of the report's by-view bands
         exr.write(staging / "masks.exr", masks, {"generator": "glossy-validate"})
         for name in list(self._images):
             shutil.copyfile(self._work / f"{name}.exr", staging / f"{name}.exr")
@@ -291,6 +294,14 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             os.replace(path, self._folder / path.name)
         settings.last_report = str(self._folder / "report.md")
         return f"wrote {len(entries)} sheet(s) and the report to {self._folder}"
+
+    def _cos_view(self):
+        """(H, W) float32 n.v of each pixel: its shading normal and the direction to the
+        camera along its centre ray (0 where no object was hit); float32 as masks.exr
+        keeps it, so the report's bands recompute from the file exactly."""
+        normals = self._normals / np.maximum(
+            np.linalg.norm(self._normals, axis=-1, keepdims=True), 1e-30)
+        return np.clip(np.sum(normals * self._views, axis=-1), 0.0, 1.0).astype(np.float32)
 
     @staticmethod
     def _store(materials, figures, date):

@@ -101,3 +101,34 @@ def test_heatmaps_show_sign_and_size():
     assert absolute[32, 20].sum() > 0 and np.all(absolute[~mask] == 64)
     figures = metrics.compare(test, reference, mask)
     assert 0.25 < figures["relative_rms"] < 0.35
+
+
+def test_the_error_by_view_elevation_sits_in_the_band_that_holds_it():
+    # A sphere's n.v seen head-on, orthographically: sqrt(1 - x^2 - y^2).
+    reference, _ = _scene((64, 64))
+    grey = np.repeat(reference[..., :1], 3, axis=-1)
+    y, x = (np.indices((64, 64)) + 0.5) / 32.0 - 1.0
+    cos_view = np.sqrt(np.clip(1.0 - x * x - y * y, 0.0, 1.0))
+    mask = x * x + y * y < 1.0
+    # A 20% error on the grazing ring only (n.v < 0.35), 5% where n.v >= 0.85.
+    test = grey * np.where(cos_view < 0.35, 1.2, np.where(cos_view >= 0.85, 1.05, 1.0))[..., None]
+    bands = metrics.by_view(test, grey, mask, cos_view)
+    assert [(b["from"], b["to"]) for b in bands] == list(zip(metrics.VIEW_BANDS[:-1],
+                                                              metrics.VIEW_BANDS[1:], strict=True))
+    assert sum(b["pixels"] for b in bands) == mask.sum()
+    t, r = test[mask][:, 0], grey[mask][:, 0]
+    mu = cos_view[mask]
+    for band in bands:
+        inside = (mu >= band["from"]) & ((mu < band["to"]) | (band["to"] == 1.0))
+        assert band["pixels"] == inside.sum() > 0
+        expected = 0.2 if band["to"] <= 0.35 else 0.05 if band["from"] >= 0.85 else 0.0
+        assert band["relative_rms"] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        assert band["error_share"] == pytest.approx(
+            np.sum((t - r)[inside] ** 2) / np.sum((t - r) ** 2), rel=1e-12, abs=1e-15)
+    assert sum(b["error_share"] for b in bands) == pytest.approx(1.0, rel=1e-12)
+    # n.v exactly 1 falls in the last band; a perfect match has no share anywhere.
+    flat = np.ones((4, 4, 3))
+    ones = metrics.by_view(flat, flat, np.ones((4, 4), bool), np.ones((4, 4)))
+    assert ones[-1]["pixels"] == 16 and all(b["error_share"] == 0.0 for b in ones)
+    with pytest.raises(ValueError, match="cos_view"):
+        metrics.by_view(test, grey, mask, cos_view[:10])

@@ -2,6 +2,7 @@
 written out on synthetic images."""
 
 import numpy as np
+import pytest
 
 from bake import validation
 
@@ -61,3 +62,32 @@ def test_ordering_is_decided_by_noise_when_each_method_sits_on_one_seed():
     assert verdict["decided_by_noise"] is True
     expected = _relative_rms(a, truth, mask) < _relative_rms(b, truth, mask)
     assert verdict["reference"] is bool(expected)
+
+
+def test_by_view_figures_are_reported_per_method_and_tabulated():
+    truth, a, b, mask = _images()
+    cos_view = np.linspace(0.0, 1.0, mask.size).reshape(mask.shape)
+    glossy = truth * np.where(cos_view < 0.1, 1.5, 1.0)[..., None]  # wrong at the rim only
+    figures = validation.evaluate_object({"eevee_glossy": glossy, "reference": truth}, mask,
+                                         (a, b), cos_view)
+    bands = figures["methods"]["eevee_glossy"]["by_view"]
+    # Against Cycles' noisy mean (5% per seed) the other bands hold the noise's share.
+    assert bands[0]["error_share"] > 0.5
+    assert bands[0]["error_share"] == max(band["error_share"] for band in bands)
+    # Against the noise-free reference the rim holds all of Glossy's error.
+    reference_bands = figures["glossy_vs_reference"]["by_view"]
+    assert reference_bands[0]["error_share"] == pytest.approx(1.0, rel=1e-12)
+    assert reference_bands[0]["relative_rms"] > 0.49
+    assert all(band["relative_rms"] == 0.0 for band in reference_bands[1:])
+    report = {"date": "today", "resolution": [32, 24], "cycles_samples": 4, "eevee_samples": 1,
+              "objects": [{"object": "Sphere", "material": "M", "brdf": "ggx:roughness=0.3",
+                           "figures": figures}]}
+    text = validation.markdown(report)
+    assert "Sphere by view elevation" in text
+    assert "| 0.00-0.10 |" in text and "(100%)" in text
+    # Without n.v there is no such table.
+    plain = validation.evaluate_object({"eevee_glossy": glossy, "reference": truth}, mask,
+                                       (a, b))
+    assert "by_view" not in plain["methods"]["eevee_glossy"]
+    assert "by view" not in validation.markdown({**report, "objects": [
+        {**report["objects"][0], "figures": plain}]})

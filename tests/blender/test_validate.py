@@ -20,8 +20,11 @@ LUM = np.array([0.2126, 0.7152, 0.0722])
 def validated(request, tmp_path_factory):
     work = tmp_path_factory.mktemp("validate")
     checks = request.param == "sunset.exr"
+    # forest.exr through a close orthographic scene camera, sunset.exr through the
+    # perspective one validation frames.
+    camera = [] if checks else ["ortho"]
     result = run_script("validate_scene.py", studio_lights() / request.param,
-                        int(checks), work, work / "r.json", timeout=900)
+                        int(checks), work, *camera, work / "r.json", timeout=900)
     folder = Path(result["folder"])
     report = json.loads((folder / "report.json").read_text())
     return request.param, result, folder, report
@@ -69,6 +72,21 @@ def test_report_figures_recompute_from_the_written_exrs(validated):
         assert figures["methods"]["eevee_glossy"]["bias"] == pytest.approx(t.mean() / r.mean(),
                                                                            rel=1e-9)
         assert figures["cycles_noise"] == pytest.approx(noise, rel=1e-9)
+        # Where the error is: per band of n.v (the layer masks.exr keeps), the same sums.
+        cos_view = masks["cos_view"][..., 0][mask].astype(np.float64)
+        # A sphere: its centre faces the camera; a pixel inside its eroded silhouette at
+        # 0.8 of its radius has n.v 0.6 (the spheres here are about 15 px across).
+        assert cos_view.max() > 0.99 and cos_view.min() < 0.6
+        bands = figures["methods"]["eevee_glossy"]["by_view"]
+        assert sum(band["pixels"] for band in bands) == figures["pixels"]
+        total = np.sum((t - r) ** 2)
+        for band in bands:
+            inside = (cos_view >= band["from"]) & (
+                (cos_view < band["to"]) | (band["to"] == 1.0))
+            assert band["pixels"] == int(inside.sum())
+            assert band["error_share"] == pytest.approx(np.sum((t - r)[inside] ** 2) / total,
+                                                        rel=1e-6, abs=1e-12)
+        assert f"{entry['object']} by view elevation" in (folder / "report.md").read_text()
         checked += 1
     assert checked == 1
 

@@ -1,10 +1,13 @@
 """glossy.validate on two isolated spheres, as a user's script drives it.
 
-    python validate_scene.py HDRI CHECKS(0/1) WORKDIR RESULT.json
+    python validate_scene.py HDRI CHECKS(0/1) WORKDIR [CAMERA] RESULT.json
 
 Sphere "Shiny" (GGX roughness 0.3, which Cycles has) and sphere "Ward" (Ward
 alpha 0.15, which it has not), World Only probes of 128 px faces, no scene
 camera (validation frames one), 96 px, Cycles 2 x 1024 spp, EEVEE 8 samples.
+CAMERA "ortho": the scene gets an orthographic camera 3 units in front of the
+spheres instead, close enough that the direction to its position is up to 45
+degrees from its rays (which a NumPy reference must follow).
 Neither sphere is seen in the other's reflections nor casts a shadow on it
 (ray visibility: Cycles' world light samples trace shadow rays, which a sphere
 invisible only to glossy rays would still block, darkening the side facing it
@@ -17,7 +20,8 @@ import sys
 from pathlib import Path
 
 hdri, checks = sys.argv[1], sys.argv[2] == "1"
-workdir, result_path = Path(sys.argv[3]), Path(sys.argv[4])
+workdir, result_path = Path(sys.argv[3]), Path(sys.argv[-1])
+camera_kind = sys.argv[4] if len(sys.argv) > 5 else ""
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
@@ -58,6 +62,13 @@ def sphere(name, x):
 
 
 shiny, ward = sphere("Shiny", -1.25), sphere("Ward", 1.25)
+if camera_kind == "ortho":  # looking along +Y from 3 units, both spheres in frame
+    data = bpy.data.cameras.new("Ortho")
+    data.type, data.ortho_scale = "ORTHO", 5.0
+    view = bpy.data.objects.new("Ortho", data)
+    view.location, view.rotation_euler = (0.0, -3.0, 0.0), (0.5 * 3.141592653589793, 0.0, 0.0)
+    scene.collection.objects.link(view)
+    scene.camera = view
 bpy.ops.object.select_all(action="SELECT")
 if checks:
     result["no_material"] = run(bpy.ops.glossy.validate)
