@@ -196,3 +196,88 @@ def test_a_wide_lobe_keeps_the_texel_sum_and_the_factor_is_bounded(probes):
     assert factor == 1 and "memory bound" in why
     with pytest.raises(ValueError, match="reconstruction"):
         reference.render(model, probe, "cube", normals, views, reconstruction="cubic")
+
+
+def _smooth_probe(face=32):
+    """A cube probe of a smooth, coloured environment (exp of low-order terms in the
+    direction): its bilinear reconstruction is nearly linear across a texel."""
+    d = envmap.get_layout("cube").texel_directions((face, 6 * face))
+    return np.exp(np.stack([1.5 * d[..., 0] + 0.5 * d[..., 1] * d[..., 2],
+                            0.8 * d[..., 2] - d[..., 1], np.sin(2.0 * d[..., 0])], axis=-1))
+
+
+@pytest.mark.parametrize("spec", ["ggx:roughness=0.01", "ggx:roughness=0.03",
+                                  "principled:metallic=1,roughness=0.01"])
+def test_a_near_mirror_lobe_sees_the_reconstruction_at_its_mirror_direction(spec, monkeypatch):
+    """A lobe hundreds of times narrower than a texel (Principled Roughness 0.01,
+    what Glossy reads a Roughness of 0 as: GGX alpha 1e-4) integrates the probe's
+    bilinear reconstruction to its value at the mirror direction times the
+    BRDF's albedo, to second order in the lobe's width: the independent truth
+    (a smooth probe, 32 px faces: 2.8 deg texels against lobes of 0.004-0.1
+    deg). The bilinear option must come within 0.1% of it (measured 1.4e-4 to
+    2.2e-4: the lobes' cores are integrated by their own samples). The grid
+    alone at the factor chosen (the cores switched off, what the reference did
+    before) is 157-191% off, a lobe falling between sub-texel centres; asserted
+    at least 20 times further off."""
+    model = brdf.parse(spec)
+    probe = _smooth_probe()
+    normals, views = _pixels(200, seed=5)
+    mirror = 2.0 * np.sum(normals * views, axis=1, keepdims=True) * normals - views
+    frames = reference._frames(normals, None, (0.3, 0.5, 0.8))
+    wo_local = np.einsum("pij,pj->pi", frames, views)
+    truth = envmap.get_layout("cube").sampler(probe.astype(np.float32))(mirror) \
+        * model.albedo(wo_local)
+    cored = reference.render(model, probe, "cube", normals, views, reconstruction="bilinear")
+    monkeypatch.setattr(reference, "CORE_STEPS", 0)
+    grid = reference.render(model, probe, "cube", normals, views, reconstruction="bilinear")
+    error, before = _relative_rms(cored, truth), _relative_rms(grid, truth)
+    print(f"\n{spec}: cores sampled {error:.2e}, grid alone {before:.3f}")
+    assert error < 1e-3
+    assert before > 20 * error
+
+
+def test_a_lobe_narrower_than_the_grid_matches_the_grid_that_resolves_it(probes, monkeypatch):
+    """Where memory or a grazing view leaves the grid coarser than a lobe, the cores
+    sampled must agree with a grid that resolves the lobe: night.exr at 32 px
+    faces (3.6 deg texels, lamps a texel wide), GGX 0.2 (4.1 deg median lobe),
+    the reference held to the probe's own grid (factor 1) against the texel sum
+    over the reconstruction 16x finer (18 steps a lobe width; the default
+    tolerance). Measured: 0.42% with the cores sampled, 48% for the grid alone.
+    The 1% bound is four times the worst case of the sample count's sweep
+    (CORE_SAMPLES: 0.03-0.25% at 2048 samples over 1-8x grids, two HDRIs)."""
+    model = brdf.parse("ggx:roughness=0.2")
+    probe = probes["night.exr"]
+    normals, views = _pixels(150, seed=1)
+    truth = reference.render(model, reference._bilinear_grid(probe, envmap.get_layout("cube"),
+                                                             16), "cube", normals, views)
+    monkeypatch.setattr(reference, "reconstruction_factor", lambda *a, **k: (1, "held"))
+    cored = reference.render(model, probe, "cube", normals, views, reconstruction="bilinear")
+    monkeypatch.setattr(reference, "CORE_STEPS", 0)
+    grid = reference.render(model, probe, "cube", normals, views, reconstruction="bilinear")
+    error, before = _relative_rms(cored, truth), _relative_rms(grid, truth)
+    print(f"\ncores sampled {error:.4f}, grid alone {before:.4f}")
+    assert error < 0.01
+    assert before > 10 * error
+
+
+def test_a_narrow_lobe_mixed_with_a_diffuse_one_is_the_sum_of_their_references(probes):
+    """A dielectric's near-mirror specular part beside its diffuse part (one model,
+    one sampler whose samples are a third diffuse): its reference must be the sum
+    of the two parts' references, each integrated alone (the specular one by its
+    core's samples, checked above; the diffuse one by the grid), within 0.1%
+    (measured 3.3e-4): the core is found through the mixture, and the diffuse
+    part within it is integrated by the cap's uniform samples as much as by
+    the mixture's own."""
+    specular, diffuse = "ggx:roughness=0.02", "lambert:color=0.6/0.5/0.4"
+    probe = probes["sunset.exr"]
+    normals, views = _pixels(150, seed=2)
+
+    def ref(spec):
+        return reference.render(brdf.parse(spec), probe, "cube", normals, views,
+                                reconstruction="bilinear")
+
+    together = ref(f"sum({specular}; {diffuse})")
+    apart = ref(specular) + ref(diffuse)
+    error = _relative_rms(together, apart)
+    print(f"\nsum against parts {error:.2e}")
+    assert error < 1e-3
