@@ -99,6 +99,69 @@ def lamp_set_changed(material, scene):
     return lamp_set(scene_lamps(scene)[0]) != material.glossy.lamp_set
 
 
+def reference_lamps(scene):
+    """([bake.lamp_reference.Lamp], [note]): every lamp that renders in ``scene`` as
+    the validation's NumPy reference integrates it (its emitter as Cycles 5.0
+    has it, the object's world transform at the current frame), and a note for
+    each lamp it leaves out or takes only in part. Colour is Color (times the
+    Temperature's colour where Use Temperature is on) x Power x 2^Exposure, as
+    measured in Cycles; without Normalize a point or spot lamp's power is per
+    square metre of its sphere, an area lamp's per square metre of its area."""
+    from ..bake.lamp_reference import Lamp
+
+    lamps, notes = [], []
+    for obj in sorted(scene.objects, key=lambda o: o.name):
+        if obj.type != "LIGHT" or obj.hide_render:
+            continue
+        light = obj.data
+        problem = _node_tree_problem(light) if light.type in KINDS else \
+            f"lamp type {light.type} is not supported"
+        if light.type == "AREA" and getattr(light, "spread", math.pi) < math.pi - 1e-6:
+            problem = "an area lamp's spread below 180 degrees is not integrated"
+        if problem:
+            notes.append(f"lamp {obj.name} is left out of the NumPy reference ({problem})")
+            continue
+        colour = [float(c) for c in light.color]
+        if getattr(light, "use_temperature", False):
+            colour = [c * float(t) for c, t in zip(colour, light.temperature_color, strict=True)]
+        scale = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+        matrix = obj.matrix_world
+        columns = [matrix.col[axis].to_3d() for axis in range(3)]
+        lengths = [max(column.length, 1e-12) for column in columns]
+        axes = tuple(tuple(column / length) for column, length in zip(columns, lengths,
+                                                                         strict=True))
+        values = {"kind": light.type, "position": tuple(matrix.translation), "axes": axes,
+                  "name": obj.name}
+        normalized = getattr(light, "normalize", True)
+        if light.type in ("POINT", "SPOT"):
+            radius = float(light.shadow_soft_size)
+            values.update(radius=radius, sphere=not getattr(light, "use_soft_falloff", True))
+            if not normalized:
+                scale *= 4.0 * math.pi * radius ** 2
+            if light.type == "SPOT":
+                values.update(spot_size=float(light.spot_size),
+                              spot_blend=float(light.spot_blend))
+        elif light.type == "SUN":
+            values.update(angle=float(light.angle))
+        else:
+            width = float(light.size) * lengths[0]
+            height = (float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE")
+                      else float(light.size)) * lengths[1]
+            values.update(shape=light.shape, size=(width, height))
+            if not normalized:
+                scale *= width * height * (math.pi / 4.0 if light.shape in ("DISK", "ELLIPSE")
+                                           else 1.0)
+        values["colour"] = tuple(c * scale for c in colour)
+        lamps.append(Lamp(**values))
+        factors = [name for name, value in (("Diffuse", light.diffuse_factor),
+                                            ("Specular", light.specular_factor))
+                   if abs(float(value) - 1.0) > 1e-6]
+        if factors:
+            notes.append(f"lamp {obj.name}: its {' and '.join(factors)} factor is not "
+                         f"applied by the NumPy reference")
+    return lamps, notes
+
+
 # --- shared node groups ----------------------------------------------------------------
 FLOAT, VECTOR, COLOR = "NodeSocketFloat", "NodeSocketVector", "NodeSocketColor"
 

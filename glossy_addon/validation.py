@@ -303,6 +303,46 @@ def pixel_geometry(scene, camera, width, height, objects):
     return index, positions, normals
 
 
+def lamp_visibility(scene, lamps, positions, normals, reach=1e-4):
+    """(N, len(lamps)) 1 where the point sees the lamp's centre (for a sun: along its
+    +Z), 0 where an object that casts shadows in Cycles is in the way; ones for a
+    lamp whose Cast Shadow is off. positions, normals: (N, 3) world. Each ray
+    starts ``reach`` times the scene's size off the surface along the normal."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    visible = np.ones((len(positions), len(lamps)))
+    if not len(positions):
+        return visible
+    size = float(np.ptp(positions, axis=0).max()) + 1.0
+    objects = {obj.name: obj for obj in scene.objects}
+    for index, lamp in enumerate(lamps):
+        owner = objects.get(lamp.name)
+        if owner is not None and not owner.data.use_shadow:
+            continue
+        for pixel, (point, normal) in enumerate(zip(positions, normals, strict=True)):
+            origin = Vector(point) + Vector(normal) * (reach * size)
+            if lamp.kind == "SUN":
+                direction, distance = Vector(lamp.axes[2]), 1e30
+            else:
+                offset = Vector(lamp.position) - origin
+                distance = offset.length
+                direction = offset / max(distance, 1e-30)
+            for _ in range(8):  # step past objects Cycles renders without shadows
+                hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, origin, direction,
+                                                             distance=distance)
+                if not hit:
+                    break
+                original = obj.original
+                if not original.hide_render and original.visible_shadow:
+                    visible[pixel, index] = 0.0
+                    break
+                step = (location - origin).length + reach * size
+                origin = origin + direction * step
+                distance -= step
+                if distance <= 0.0:
+                    break
+    return visible
+
+
 def _smooth_normals(obj_eval, points, polys):
     """(P, 3) shading normals at world points on the given polygons."""
     verts, corners, tri_verts, polygons, corner_normals = _corner_geometry(obj_eval)

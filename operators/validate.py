@@ -20,10 +20,11 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..bake import exr, metrics, reference, validation
+from ..bake import exr, lamp_reference, metrics, reference, validation
 from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
 from ..bake.progress import prefixed_steps, run_steps
+from ..glossy_addon import lamps as glossy_lamps
 from ..glossy_addon import validation as glue
 from ..glossy_addon.capture import lookup_truths
 from ..glossy_addon.material_source import parts as material_parts
@@ -90,6 +91,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._changes = glue.SceneChanges()
         self._notes, self._images, self._timings = [], {}, {}
         self._references = {}
+        self._lamp_noted = False
         try:
             self._setup(context, scene, settings)
         except BaseException:
@@ -213,6 +215,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
                 self._notes.append(f"{material.name}: the NumPy reference orients the "
                                    f"anisotropic lobe by a fixed hint, not the UV tangent")
+            lamps, visibility = self._lamps(obj, self._positions[index_pass], normals)
             for model, weight in glue.reference_parts(material):
                 factor, why = reference.reconstruction_factor(model, probe.shape, layout,
                                                               normals, views, tangents=tangents)
@@ -223,6 +226,11 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                 part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
                     model, probe, layout, normals, views, tangents=tangents,
                     reconstruction="bilinear"))
+                if lamps:
+                    yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
+                    part = part + lamp_reference.radiance(
+                        model, lamps, self._positions[index_pass], normals, views,
+                        tangents=tangents, visibility=visibility)
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
                 elif weight == "one_minus_fresnel":
@@ -232,6 +240,23 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._references[obj.name] = radiance
         self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
         return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
+
+    def _lamps(self, obj, positions, normals):
+        """(the scene's lamps as the reference integrates them, (N, lamps) visibility
+        of each from ``obj``'s pixels); the notes once per validation."""
+        scene = bpy.context.scene
+        lamps, notes = glossy_lamps.reference_lamps(scene)
+        if not self._lamp_noted:
+            self._lamp_noted = True
+            self._notes.extend(notes)
+            if lamps:
+                self._notes.append(
+                    f"the NumPy reference adds the light of {len(lamps)} lamp(s) "
+                    f"({', '.join(lamp.name for lamp in lamps)}), each shadowed where an "
+                    f"object lies between the pixel and the lamp's centre")
+        if not lamps:
+            return [], None
+        return lamps, glue.lamp_visibility(scene, lamps, positions, normals)
 
     def _write_report(self, context):
         scene = context.scene
