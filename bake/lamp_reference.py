@@ -42,6 +42,7 @@ BRDF's a near-mirror lobe under a large one. Checked against closed forms
 (tests/blender/test_validate_lamps.py).
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,10 +50,13 @@ import numpy as np
 from .brdf.base import hammersley
 from .reference import _frames, pixel_arrays
 
-__all__ = ["Lamp", "radiance", "SAMPLES", "KINDS", "AREA_SHAPES"]
+__all__ = ["Lamp", "radiance", "shadow_rays", "SAMPLES", "SHADOW_RAYS", "KINDS", "AREA_SHAPES"]
 
 #: Samples per pixel and lamp from each technique (emitter, BRDF).
 SAMPLES = 512
+#: Shadow rays per pixel toward a lamp with extent (one toward a lamp without):
+#: the visibility a caller passes is the fraction of them unblocked.
+SHADOW_RAYS = 16
 #: Pixels per batch (bounds memory: batch x SAMPLES x 3 doubles per array).
 BATCH = 1024
 KINDS = ("POINT", "SPOT", "SUN", "AREA")
@@ -209,6 +213,22 @@ class _Emitter:
         radiance = np.where(lit[..., None], self.radiance[:, None], 0.0)
         return wi, density, radiance
 
+    def distance(self, wi):
+        """(N, M) distance from each point along directions ``wi`` (N, M, 3) to the
+        lamp's surface (its plane for a disc or area lamp, the near side of a
+        sphere lamp; inf for a sun)."""
+        if self.kind == "cone":
+            if self.lamp.kind == "SUN":
+                return np.full(wi.shape[:2], np.inf)
+            offset = np.asarray(self.lamp.position) - self.points
+            along = np.einsum("nmk,nk->nm", wi, offset)
+            across_sq = np.sum(offset * offset, axis=1)[:, None] - along ** 2
+            return np.maximum(along - np.sqrt(np.maximum(self.lamp.radius ** 2 - across_sq,
+                                                         0.0)), 0.0)
+        depth = np.einsum("nk,nk->n", self.centre - self.points, -self.normal)
+        cos_l = -np.einsum("nmk,nk->nm", wi, self.normal)
+        return depth[:, None] / np.maximum(cos_l, 1e-9)
+
     def hit(self, wi):
         if self.kind == "cone":
             inside = np.einsum("nmk,nk->nm", wi, self.axis) >= self.cos_half[:, None]
@@ -269,8 +289,10 @@ def _shifted(points, pixels):
     return np.mod(points[None] + shift[:, None, :], 1.0)
 
 
-def _extended(model, lamp, points, frames, wo_local, pixels, samples):
-    """(N, 3) the balance-heuristic estimate for a lamp with extent."""
+def _extended(model, lamp, points, frames, wo_local, pixels, samples, unblocked=None):
+    """(N, 3) the balance-heuristic estimate for a lamp with extent; ``unblocked``:
+    None or a function (points (N, 3), directions (N, M, 3), distances (N, M)) ->
+    (N, M) 1 where the ray reaches the lamp, 0 where something blocks it."""
     emitter = _Emitter(lamp, points)
     count = len(points)
     wo = np.broadcast_to(wo_local[:, None, :], (count, samples, 3))
@@ -292,18 +314,51 @@ def _extended(model, lamp, points, frames, wo_local, pixels, samples):
         density = samples * (pdf_emitter + pdf_model)
         keep = (density > 0.0) & (local[..., 2] > 0.0) & (radiance_in.max(axis=-1) > 0.0)
         weight = np.where(keep, local[..., 2] / np.where(keep, density, 1.0), 0.0)
+        if unblocked is not None:
+            weight = weight * unblocked(points, wi, np.where(keep, emitter.distance(wi), 0.0))
         total += np.sum(model.f(local, wo) * radiance_in * weight[..., None], axis=1)
     return total
 
 
+def shadow_rays(lamp, positions, count=SHADOW_RAYS):
+    """(directions (N, K, 3), distances (N, K)): rays from world points (N, 3) to K
+    points spread over ``lamp`` (stratified as its samples are; K = 1 toward a
+    lamp without extent; a sun's distances are inf). The fraction of them that
+    reach the lamp is the visibility :func:`radiance` takes, a soft shadow's
+    penumbra included."""
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    if lamp.delta:
+        if lamp.kind == "SUN":
+            direction = np.broadcast_to(np.asarray(lamp.axes, dtype=np.float64)[2],
+                                        positions.shape)
+            return direction[:, None].copy(), np.full((len(positions), 1), np.inf)
+        offset = np.asarray(lamp.position) - positions
+        distance = np.linalg.norm(offset, axis=1)
+        return (offset / np.maximum(distance, 1e-300)[:, None])[:, None], distance[:, None]
+    emitter = _Emitter(lamp, positions)
+    u = _shifted(hammersley(int(count), shift=(0.37, 0.61)), np.arange(len(positions)))
+    directions, _, _ = emitter.sample(u)
+    return directions, emitter.distance(directions)
+
+
+def _test_rays(test, index, normals, points, directions, distances):
+    return test(index, points, normals, directions, distances)
+
+
 def radiance(model, lamps, positions, normals, views, *, tangents=None,
-             tangent_hint=(0.3, 0.5, 0.8), visibility=None, samples=SAMPLES):
+             tangent_hint=(0.3, 0.5, 0.8), visibility=None, unblocked=None, samples=SAMPLES):
     """(N, 3) radiance toward the viewer reflected from ``lamps`` (a sequence of Lamp).
 
     positions, normals, views: (N, 3) world points, unit normals and unit
     directions toward the viewer; tangents: (N, 3) or None (the BRDF frame as
     bake.reference builds it). visibility: (N, len(lamps)) factor per pixel and
-    lamp (1 lit, 0 shadowed), or None (unshadowed). samples: per technique.
+    lamp (1 lit, 0 shadowed, between: in a penumbra; :func:`shadow_rays`), or
+    None (unshadowed). unblocked: None, or a function (lamp index, points
+    (P, 3), normals (P, 3), directions (P, M, 3), distances (P, M)) -> (P, M)
+    0 / 1 that tests
+    each sample's ray; where given, pixels whose visibility is strictly between
+    0 and 1 have every sample tested (the penumbra weighed by the lobe, not by
+    the lamp's area), the others take the factor. samples: per technique.
     """
     normals, views, tangents = pixel_arrays(normals, views, tangents)
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
@@ -327,10 +382,21 @@ def radiance(model, lamps, positions, normals, views, *, tangents=None,
             at = np.flatnonzero(reach)
             if lamp.delta:
                 part = _delta(model, lamp, points[at], frames[at], wo_local[at])
-            else:
-                part = _extended(model, lamp, points[at], frames[at], wo_local[at],
-                                 start + at, int(samples))
-            if visibility is not None:
-                part = part * visibility[start + at, index, None]
-            out[start + at] += part
+                if visibility is not None:
+                    part = part * visibility[start + at, index, None]
+                out[start + at] += part
+                continue
+            factor = np.ones(len(at)) if visibility is None else visibility[start + at, index]
+            penumbra = (factor < 1.0) if unblocked is not None else np.zeros(len(at), bool)
+            for subset, test in ((~penumbra, None), (penumbra, unblocked)):
+                if not subset.any():
+                    continue
+                pick = at[subset]
+                ray_test = None if test is None else functools.partial(
+                    _test_rays, test, index, normals[start + pick])
+                part = _extended(model, lamp, points[pick], frames[pick], wo_local[pick],
+                                 start + pick, int(samples), ray_test)
+                if test is None:
+                    part = part * factor[subset, None]
+                out[start + pick] += part
     return out

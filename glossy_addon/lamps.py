@@ -22,6 +22,14 @@ Cycles renders of the true BSDF):
   within 1.6% for a square 0.1 of its distance wide, 9% at 0.5; spread below
   180 degrees is not converted (the lamp is skipped and the panel says so).
 
+The colour is Color times the Temperature's colour where Use Temperature is
+on, the power Power x 2^Exposure (and, for a point or spot lamp without
+Normalize, x 4 pi r^2: its power is then per square metre of its sphere), as
+Cycles 5.0 renders them (measured with a white Lambert plane; an area lamp
+without Normalize is skipped and named). Before stop 53 Exposure and
+Temperature were ignored: a lamp at Exposure 1 lit the material at half its
+brightness in Cycles, a 3200 K one white instead of orange.
+
 Colour, power, radius, cone, position and direction are read live through
 drivers (simple expressions: no Python needs to run), so moving, re-aiming or
 re-colouring a lamp needs no re-bake or re-attach; adding or removing one
@@ -69,6 +77,8 @@ def lamp_problem(obj):
         return f"lamp type {light.type} is not supported"
     if light.type == "AREA" and getattr(light, "spread", math.pi) < math.pi - 1e-6:
         return "an area lamp's spread below 180 degrees is not converted"
+    if light.type == "AREA" and not getattr(light, "normalize", True):
+        return "an area lamp without Normalize (power per square metre) is not converted"
     return _node_tree_problem(light)
 
 
@@ -351,8 +361,22 @@ def drive_lamp_inputs(node, obj):
                                        "-(1 - 2*(x*x + y*y))")):  # the lamp's -Z in world
         _driver(node.inputs["Lamp Direction"], axis, expression, rotation)
     for channel in range(3):
-        _driver(node.inputs["Color"], channel, "v", [("v", "PROP", light, f"color[{channel}]")])
-    _driver(node.inputs["Power"], None, "v", [("v", "PROP", light, "energy")])
+        colour = [("v", "PROP", light, f"color[{channel}]")]
+        expression = "v"
+        if hasattr(light, "use_temperature"):  # Blender 4.5+: Color x the Temperature's
+            colour += [("u", "PROP", light, "use_temperature"),
+                       ("t", "PROP", light, f"temperature_color[{channel}]")]
+            expression = "v * (t if u else 1.0)"
+        _driver(node.inputs["Color"], channel, expression, colour)
+    power, expression = [("v", "PROP", light, "energy")], "v"
+    if hasattr(light, "exposure"):  # Power x 2^Exposure
+        power.append(("e", "PROP", light, "exposure"))
+        expression = "v * pow(2.0, e)"
+    if hasattr(light, "normalize") and light.type in ("POINT", "SPOT"):
+        # without Normalize the power is per square metre of the lamp's sphere
+        power += [("n", "PROP", light, "normalize"), ("r", "PROP", light, "shadow_soft_size")]
+        expression = f"{expression} * (1.0 if n else 4.0 * pi * r * r)"
+    _driver(node.inputs["Power"], None, expression, power)
     if light.type in ("POINT", "SPOT"):
         _driver(node.inputs["Radius"], None, "v", [("v", "PROP", light, "shadow_soft_size")])
     if light.type == "SPOT":

@@ -289,8 +289,8 @@ def pixel_geometry(scene, camera, width, height, objects):
     wanted = {obj.name: number + 1 for number, obj in enumerate(objects)}
     for row in range(height):
         for col in range(width):
-            hit, location, _, face, hit_obj, _ = scene.ray_cast(
-                depsgraph, Vector(origins[row, col]), Vector(directions[row, col]))
+            hit, location, face, hit_obj = _camera_hit(scene, depsgraph, origins[row, col],
+                                                       directions[row, col])
             if hit and hit_obj.original.name in wanted:
                 index[row, col] = wanted[hit_obj.original.name]
                 positions[row, col] = location
@@ -304,43 +304,100 @@ def pixel_geometry(scene, camera, width, height, objects):
 
 
 def lamp_visibility(scene, lamps, positions, normals, reach=1e-4):
-    """(N, len(lamps)) 1 where the point sees the lamp's centre (for a sun: along its
-    +Z), 0 where an object that casts shadows in Cycles is in the way; ones for a
-    lamp whose Cast Shadow is off. positions, normals: (N, 3) world. Each ray
-    starts ``reach`` times the scene's size off the surface along the normal."""
+    """(N, len(lamps)): the fraction of bake.lamp_reference.shadow_rays from each
+    point to each lamp, of those above its horizon, that no object casting
+    shadows in Cycles blocks (ones for a lamp whose Cast Shadow is off).
+    positions, normals: (N, 3) world. Each
+    ray starts ``reach`` times the scene's size off the surface along the normal;
+    objects hidden from renders or from shadow rays are stepped through."""
+    from ..bake.lamp_reference import shadow_rays
+
     depsgraph = bpy.context.evaluated_depsgraph_get()
     visible = np.ones((len(positions), len(lamps)))
     if not len(positions):
         return visible
     size = float(np.ptp(positions, axis=0).max()) + 1.0
-    objects = {obj.name: obj for obj in scene.objects}
+    owners = {obj.name: obj for obj in scene.objects}
+    origins = positions + normals * (reach * size)
     for index, lamp in enumerate(lamps):
-        owner = objects.get(lamp.name)
+        owner = owners.get(lamp.name)
         if owner is not None and not owner.data.use_shadow:
             continue
-        for pixel, (point, normal) in enumerate(zip(positions, normals, strict=True)):
-            origin = Vector(point) + Vector(normal) * (reach * size)
-            if lamp.kind == "SUN":
-                direction, distance = Vector(lamp.axes[2]), 1e30
-            else:
-                offset = Vector(lamp.position) - origin
-                distance = offset.length
-                direction = offset / max(distance, 1e-30)
-            for _ in range(8):  # step past objects Cycles renders without shadows
-                hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, origin, direction,
-                                                             distance=distance)
-                if not hit:
-                    break
-                original = obj.original
-                if not original.hide_render and original.visible_shadow:
-                    visible[pixel, index] = 0.0
-                    break
-                step = (location - origin).length + reach * size
-                origin = origin + direction * step
-                distance -= step
-                if distance <= 0.0:
-                    break
+        directions, distances = shadow_rays(lamp, origins)
+        distances = np.minimum(distances, 1e30)
+        # Rays below the pixel's horizon carry no light (the cosine is 0 there), so
+        # the fraction counts those above it: a lamp half below the horizon is not
+        # half shadowed.
+        above = np.einsum("nkj,nj->nk", directions, normals) > 0.0
+        for pixel in np.flatnonzero(above.any(axis=1)):
+            rays = np.flatnonzero(above[pixel])
+            reached = sum(_unblocked(scene, depsgraph, Vector(origins[pixel]),
+                                     Vector(directions[pixel, ray]),
+                                     float(distances[pixel, ray]), reach * size)
+                          for ray in rays)
+            visible[pixel, index] = reached / len(rays)
     return visible
+
+
+def lamp_ray_test(scene, lamps, reach=1e-4):
+    """A bake.lamp_reference ``unblocked`` function: a ray cast from each point
+    (moved off the surface along its normal) along each sample's direction, as
+    far as the lamp, through the scene's shadow casters (none for a lamp whose
+    Cast Shadow is off)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    owners = {obj.name: obj for obj in scene.objects}
+
+    def unblocked(lamp_index, points, normals, directions, distances):
+        owner = owners.get(lamps[lamp_index].name)
+        if owner is not None and not owner.data.use_shadow:
+            return np.ones(directions.shape[:2])
+        size = float(np.ptp(points, axis=0).max()) + 1.0
+        origins = points + normals * (reach * size)
+        out = np.zeros(directions.shape[:2])
+        for pixel, row in enumerate(directions):
+            origin = Vector(origins[pixel])
+            for sample in np.flatnonzero(distances[pixel] > 0.0):
+                out[pixel, sample] = _unblocked(scene, depsgraph, origin,
+                                                Vector(row[sample]),
+                                                float(min(distances[pixel, sample], 1e30)),
+                                                reach * size)
+        return out
+
+    return unblocked
+
+
+def _unblocked(scene, depsgraph, origin, direction, distance, step_past):
+    """True if no object that casts shadows in Cycles lies on the ray."""
+    for _ in range(8):  # step past objects hidden from renders or shadow rays
+        hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, origin, direction,
+                                                     distance=distance)
+        if not hit:
+            return True
+        original = obj.original
+        if not original.hide_render and original.visible_shadow:
+            return False
+        step = (location - origin).length + step_past
+        origin = origin + direction * step
+        distance -= step
+        if distance <= 0.0:
+            return True
+    return True
+
+
+def _camera_hit(scene, depsgraph, origin, direction):
+    """(hit, location, face, object) of the first object a camera ray meets that the
+    renders show to the camera (objects hidden from renders or from camera rays,
+    a shadow caster say, are stepped through)."""
+    origin, direction = Vector(origin), Vector(direction)
+    for _ in range(8):
+        hit, location, _, face, obj, _ = scene.ray_cast(depsgraph, origin, direction)
+        if not hit:
+            break
+        original = obj.original
+        if not original.hide_render and original.visible_camera:
+            return hit, location, face, obj
+        origin = location + direction * 1e-5 * max(1.0, location.length)
+    return False, None, -1, None
 
 
 def _smooth_normals(obj_eval, points, polys):

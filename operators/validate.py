@@ -230,7 +230,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                     yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
                     part = part + lamp_reference.radiance(
                         model, lamps, self._positions[index_pass], normals, views,
-                        tangents=tangents, visibility=visibility)
+                        tangents=tangents, visibility=visibility,
+                        unblocked=glue.lamp_ray_test(bpy.context.scene, lamps))
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
                 elif weight == "one_minus_fresnel":
