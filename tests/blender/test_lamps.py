@@ -64,6 +64,30 @@ def test_every_lamp_kind_lights_the_factored_brdf_as_cycles_does(tmp_path):
     assert metrics.relative_rms(truth, reference, mask) <= 0.02 + 2 * noise
 
 
+def test_a_lamps_exposure_and_temperature_light_the_material_as_in_cycles(tmp_path):
+    """Exposure 1 (twice the power) and a 3200 K Temperature (Color times an orange):
+    before stop 53 the lamp term read Color and Power alone, a bias of about 0.5
+    in luminance and a white highlight. Bounds of the first test: within 2 points
+    of native EEVEE's error plus the noise, bias within 5%, and the highlight's
+    colour (red over blue of the summed image) within 5% of Cycles'."""
+    r = run_script("lamps_scene.py", tmp_path, "ggx:roughness=0.3", "warm", 128, 2,
+                   "half-difference", tmp_path / "r.json")
+    first, second = (_image(p) for p in r["cycles"])
+    mask = first[..., 3] > 0.999
+    reference = (first[..., :3] + second[..., :3]) / 2
+    noise = metrics.relative_rms(first[..., :3], second[..., :3], mask) / 2
+    glossy = _image(r["glossy"])[..., :3]
+    glossy_error = metrics.relative_rms(glossy, reference, mask)
+    native_error = metrics.relative_rms(_image(r["native"])[..., :3], reference, mask)
+    print(f"warm lamp: Glossy {glossy_error:.4f}, native {native_error:.4f}, noise {noise:.4f}")
+    assert glossy_error <= native_error + 0.02 + noise
+    assert abs(metrics.bias(glossy, reference, mask) - 1.0) < 0.05
+    tint = glossy[mask].sum(axis=0)
+    truth_tint = reference[mask].sum(axis=0)
+    assert truth_tint[0] > 3 * truth_tint[2]  # the Temperature's orange
+    assert abs((tint[0] / tint[2]) / (truth_tint[0] / truth_tint[2]) - 1.0) < 0.05
+
+
 def _errors(r, against_cycles):
     glossy = _image(r["glossy"])
     mask = glossy[..., 3] > 0.999

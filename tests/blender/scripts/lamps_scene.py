@@ -4,8 +4,9 @@ seeds) and EEVEE with the true BSDF (native), saved as EXR for the pytest side.
 
     python lamps_scene.py WORKDIR SPEC LAMPS SIZE TERMS PARAM RESULT.json
 
-LAMPS: comma-separated kinds among point, sun, spot, area and textured (a
-point lamp with a texture in its node tree: Glossy must skip it and say so).
+LAMPS: comma-separated kinds among point, sun, spot, area, textured (a
+point lamp with a texture in its node tree: Glossy must skip it and say so)
+and warm (a point lamp at Exposure 1 with a 3200 K Temperature colour).
 Afterwards: a lamp added after attach (the panel's "changed" flag, picked up
 by re-attach) and an absurd term count (refused before any work).
 """
@@ -43,7 +44,11 @@ LAMPS = {"point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0, "shadow_so
                                                     "spot_size": math.radians(30),
                                                     "spot_blend": 0.5}),
          "area": ("AREA", (1.0, -4.0, -1.0), None, {"energy": 300.0, "size": 0.2}),
-         "textured": ("POINT", (0.0, -3.0, -2.0), None, {"energy": 100.0})}
+         "textured": ("POINT", (0.0, -3.0, -2.0), None, {"energy": 100.0}),
+         # Exposure 1 doubles the power, Use Temperature tints Color (Cycles 5.0)
+         "warm": ("POINT", (-2.0, -3.0, 1.5), None, {"energy": 150.0, "shadow_soft_size": 0.0,
+                                                     "exposure": 1.0, "use_temperature": True,
+                                                     "temperature": 3200.0})}
 for name in kinds:
     kind, location, rotation, values = LAMPS[name]
     light = bpy.data.lights.new(name, kind)
@@ -148,8 +153,10 @@ def numpy_truth(path):
                             0, 1)[..., None]
                 irradiance = irradiance * x * x * (3 - 2 * x)
         wi, wo = local(to_lamp), local(view)
+        colour = np.array(light.color) * (np.array(light.temperature_color)
+                                          if light.use_temperature else 1.0)
         total += model.f(wi, wo) * np.maximum(wi[..., 2:], 0) * irradiance * \
-            np.array(light.color) * light.specular_factor
+            colour * 2.0 ** light.exposure * light.specular_factor
     mask = (index == 1).astype(np.float32)[..., None]
     exr.write(path, np.concatenate([total * mask, mask], -1).astype(np.float32))
     return str(path)
