@@ -99,6 +99,82 @@ def truth_material(material, tangent=None):
     return truth, None
 
 
+def colour_plan(material):
+    """(specs, combine, socket) where the NumPy reference can follow a Base Color
+    texture per pixel exactly, else None: a From Material Principled BSDF alone
+    whose only input applied per pixel is Base Color. specs: the bake.brdf specs
+    to integrate; combine(values, colour, mu): the reflection at each pixel from
+    their integrals (a list of (N, 3)), the pixel's colour (N, 3) and view cosine
+    (N,); socket: (node name, input name) of the colour. A metal (Metallic 1)
+    follows bake.colour_response (integrals at base colours 0 and 1, the coat
+    alone, the energy term), a dielectric (Metallic 0) is affine in its base
+    colour (integrals at 0 and 1); a partly metallic one is None."""
+    if material.glossy.model != "MATERIAL":
+        return None
+    from ..bake.brdf.principled import Principled
+    from ..bake.colour_response import response
+    from .material_source import parts as material_parts
+
+    derived = material_parts(material).derived
+    spatial = derived.spatial if derived is not None else {}
+    entry = spatial.get("colour")
+    if entry is None or set(spatial) != {"colour"} or entry.get("input") != "Base Color":
+        return None
+    model = brdf.parse(derived.spec)
+    if not isinstance(model, Principled):
+        return None
+    socket = (entry["node"], entry["input"])
+    if model.metallic == 1.0:
+        found = response(model, "base_color")
+        if found is None:
+            return None
+        specs = [spec for spec in (found.low, found.high, found.coat) if spec is not None]
+
+        def combine(values, colour, mu):
+            values = list(values)
+            low = values.pop(0) if found.low is not None else None
+            high = values.pop(0)
+            coat = values.pop(0) if found.coat is not None else None
+            return found.combine(low, high, colour, mu, coat)
+
+        return specs, combine, socket
+    if model.metallic == 0.0:
+        specs = [Principled(**{**model.params, "base_color": value}).spec for value in (0.0, 1.0)]
+
+        def affine(values, colour, mu):
+            return values[0] + np.clip(colour, 0.0, 1.0) * (values[1] - values[0])
+
+        return specs, affine, socket
+    return None
+
+
+def colour_pass_material(material, socket):
+    """A new material: ``material``'s own nodes (without Glossy's lookup) with their
+    Material Output showing, as an Emission of strength 1, what feeds input
+    ``socket`` = (node name, input name): a render of it is that input's value per
+    pixel. None where the link is gone."""
+    from .material_source import source_material
+    from .nodes import strip_lookup, user_output
+    from .spatial import input_socket
+
+    copy = source_material(material).copy()
+    copy.name = f"{material.name} (Glossy colour pass)"
+    copy.use_fake_user = False
+    strip_lookup(copy)
+    if copy.glossy.original is not None:
+        copy.glossy.original = None
+    feed = input_socket(copy, *socket)
+    output = user_output(copy)
+    if feed is None or output is None:
+        bpy.data.materials.remove(copy)
+        return None
+    emission = copy.node_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    copy.node_tree.links.new(feed, emission.inputs["Color"])
+    copy.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    return copy
+
+
 def radial_tangents(obj, positions, axis="Z"):
     """(N, 3) world tangents of Blender's radial Tangent node about ``axis`` at world
     points (N, 3) of ``obj``: the generated coordinates' offset from the bounding

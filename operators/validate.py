@@ -20,7 +20,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..bake import exr, lamp_reference, metrics, reference, validation
+from ..bake import brdf, exr, lamp_reference, metrics, reference, validation
 from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
 from ..bake.progress import prefixed_steps, run_steps
@@ -32,6 +32,10 @@ from ..glossy_addon.materials import effective_tangent
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
+
+#: Cycles samples of the Base Color pass (an emission: converged in a few; these
+#: anti-alias it as the truth renders are).
+COLOUR_PASS_SAMPLES = 16
 
 
 def _glossy_materials(obj):
@@ -98,6 +102,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             self._cleanup()
             raise
         steps = [("cycles", 1), ("cycles", 2), ("eevee_native", 0), ("eevee_glossy", 0)]
+        if self._colour_passes:
+            steps.insert(2, ("colour_pass", 0))
         if self._careful:
             steps.append(("eevee_native_careful", 0))
         steps += [("reference", index) for index in range(len(self._targets))]
@@ -115,6 +121,17 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._size = glue.prepare_output(changes, scene, settings.validate_resolution)
         self._careful = glue.careful_differs(scene)
         self._truth, self._slots = {}, []
+        # Base Color textures the reference follows per pixel: a Cycles render of
+        # each one's value (an emission pass) and the plan that uses it.
+        self._colour_plans, self._colour_passes = {}, {}
+        for _, materials in self._targets:
+            plan = glue.colour_plan(materials[0])
+            if plan is not None and materials[0].name not in self._colour_plans:
+                shown = glue.colour_pass_material(materials[0], plan[2])
+                if shown is not None:
+                    changes.created(bpy.data.materials, shown)
+                    self._colour_plans[materials[0].name] = plan
+                    self._colour_passes[materials[0].name] = shown
         for obj, materials in self._targets:
             for material in materials:
                 if material.name in self._truth:
@@ -168,6 +185,13 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                                  careful=kind == "eevee_native_careful")
             name = kind
             message = validation.METHOD_TITLES[kind]
+        elif kind == "colour_pass":
+            self._use("truth")
+            for slot, material in self._slots:
+                if material.name in self._colour_passes:
+                    slot.material = self._colour_passes[material.name]
+            glue.configure_cycles(self._changes, scene, COLOUR_PASS_SAMPLES, 1)
+            name, message = kind, "the Base Color textures' values"
         elif kind == "reference":
             return self._reference_steps(value)
         else:
@@ -215,23 +239,29 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
                 self._notes.append(f"{material.name}: the NumPy reference orients the "
                                    f"anisotropic lobe by a fixed hint, not the UV tangent")
+            plan = self._colour_plans.get(material.name)
+            if plan is None:
+                self._note_per_pixel_inputs(obj, material)
             lamps, visibility = self._lamps(obj, self._positions[index_pass], normals)
+            if plan is not None:
+                specs, combine, socket = plan
+                values = []
+                for spec in specs:
+                    values.append((yield from self._integrate(
+                        obj, brdf.parse(spec), probe, layout, normals, views, tangents,
+                        lamps, visibility, index_pass)))
+                colour = self._images["colour_pass"][index_pass][:, :3]
+                radiance[index_pass] = combine(values, colour, cos_v)
+                self._notes.append(
+                    f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
+                    f"pixel (its value rendered by Cycles as an emission pass; the "
+                    f"reflection from integrals at colours 0 and 1, bake.colour_response)")
+                self._references[obj.name] = radiance
+                self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
+                return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
             for model, weight in glue.reference_parts(material):
-                factor, why = reference.reconstruction_factor(model, probe.shape, layout,
-                                                              normals, views, tangents=tangents)
-                if factor > 1:
-                    self._notes.append(f"{obj.name}: the NumPy reference ({model.spec}) "
-                                       f"integrates the probe's bilinear reconstruction "
-                                       f"sampled {factor}x finer ({why})")
-                part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
-                    model, probe, layout, normals, views, tangents=tangents,
-                    reconstruction="bilinear"))
-                if lamps:
-                    yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
-                    part = part + lamp_reference.radiance(
-                        model, lamps, self._positions[index_pass], normals, views,
-                        tangents=tangents, visibility=visibility,
-                        unblocked=glue.lamp_ray_test(bpy.context.scene, lamps))
+                part = yield from self._integrate(obj, model, probe, layout, normals, views,
+                                                  tangents, lamps, visibility, index_pass)
                 if weight == "fresnel":
                     part = part * fresnel_weight[:, None]
                 elif weight == "one_minus_fresnel":
@@ -241,6 +271,43 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._references[obj.name] = radiance
         self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
         return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
+
+    def _integrate(self, obj, model, probe, layout, normals, views, tangents, lamps,
+                   visibility, index_pass):
+        """(N, 3) the reference of one BRDF at an object's pixels: the probe's integral
+        plus the lamps' light (a generator, yielding progress)."""
+        factor, why = reference.reconstruction_factor(model, probe.shape, layout,
+                                                      normals, views, tangents=tangents)
+        if factor > 1:
+            self._notes.append(f"{obj.name}: the NumPy reference ({model.spec}) "
+                               f"integrates the probe's bilinear reconstruction "
+                               f"sampled {factor}x finer ({why})")
+        part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
+            model, probe, layout, normals, views, tangents=tangents,
+            reconstruction="bilinear"))
+        if lamps:
+            yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
+            part = part + lamp_reference.radiance(
+                model, lamps, self._positions[index_pass], normals, views,
+                tangents=tangents, visibility=visibility,
+                unblocked=glue.lamp_ray_test(bpy.context.scene, lamps))
+        return part
+
+    def _note_per_pixel_inputs(self, obj, material):
+        """A note where the lookup applies inputs per pixel (textures, a normal map)
+        that the NumPy reference, one BRDF for all the object's pixels, takes at one
+        value: its columns then include the texture's variation."""
+        derived = material_parts(material).derived if material.glossy.model == "MATERIAL" \
+            else None
+        spatial = getattr(derived, "spatial", None) or {}
+        if not spatial:
+            return
+        inputs = ", ".join(sorted(f"{entry.get('node', '?')}: {entry.get('input', kind)}"
+                                  for kind, entry in spatial.items()))
+        self._notes.append(
+            f"{obj.name}: the lookup applies {inputs} per pixel; the NumPy reference shades "
+            f"every pixel with one BRDF (those inputs at one value), so the reference and "
+            f"'Glossy vs reference' include the texture's variation")
 
     def _lamps(self, obj, positions, normals):
         """(the scene's lamps as the reference integrates them, (N, lamps) visibility

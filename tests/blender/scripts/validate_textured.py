@@ -1,0 +1,78 @@
+"""glossy.validate on materials with a Base Color texture, as a user's script drives it.
+
+    python validate_textured.py HDRI WORKDIR RESULT.json
+
+Two isolated spheres under a World Only probe (64 px faces): "Metal" (a
+Principled metal, Roughness 0.3) and "Plastic" (a Principled dielectric,
+Roughness 0.3), each with its Base Color from a Checker Texture of two
+colours far apart (what a single value cannot stand for), read From
+Material. Neither sphere is in the other's reflections or shadows (ray
+visibility, as tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp,
+96 px, EEVEE 4 samples. Writes each sphere's figures and the notes.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+import glossy  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world  # noqa: E402
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glossy.register()
+scene = bpy.context.scene
+bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "textured.blend"))
+environment_world(scene, hdri)
+settings = scene.glossy
+settings.validate_resolution = 96
+settings.validate_samples = 256
+settings.validate_eevee_samples = 4
+
+
+def sphere(name, x, metallic):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
+                                         location=(x, 0.0, 0.0))
+    bpy.ops.object.shade_smooth()
+    obj = bpy.context.object
+    obj.name = name
+    for ray in ("glossy", "diffuse", "transmission", "shadow"):
+        setattr(obj, f"visible_{ray}", False)
+    obj.glossy.probe_source = "WORLD"
+    obj.glossy.probe_size_mode = "FIXED"
+    obj.glossy.probe_resolution = 64
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    principled = tree.nodes["Principled BSDF"]
+    principled.inputs["Metallic"].default_value = metallic
+    principled.inputs["Roughness"].default_value = 0.3
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 5.0
+    checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+    tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+    obj.data.materials.append(material)
+    return obj
+
+
+spheres = [sphere("Metal", -1.25, 1.0), sphere("Plastic", 1.25, 0.0)]
+steps = {}
+for obj in spheres:
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    for name, operator in (("capture", bpy.ops.glossy.capture_probes),
+                           ("bake", bpy.ops.glossy.bake_materials),
+                           ("attach", bpy.ops.glossy.attach_materials)):
+        steps[f"{obj.name} {name}"] = sorted(operator())
+for obj in spheres:
+    obj.select_set(True)
+steps["validate"] = sorted(bpy.ops.glossy.validate())
+folder = workdir / "glossy" / "validation"
+report = json.loads((folder / "report.json").read_text())
+result_path.write_text(json.dumps({
+    "steps": steps, "notes": report["notes"], "folder": str(folder),
+    "figures": {entry["object"]: entry["figures"] for entry in report["objects"]}}))
