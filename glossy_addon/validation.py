@@ -118,7 +118,8 @@ def colour_plan(material):
     derived = material_parts(material).derived
     spatial = derived.spatial if derived is not None else {}
     entry = spatial.get("colour")
-    if entry is None or set(spatial) != {"colour"} or entry.get("input") != "Base Color":
+    if entry is None or not set(spatial) <= {"colour", "normal"} or \
+            entry.get("input") != "Base Color":
         return None
     model = brdf.parse(derived.spec)
     if not isinstance(model, Principled):
@@ -148,17 +149,36 @@ def colour_plan(material):
     return None
 
 
-def colour_pass_material(material, socket):
+def normal_socket(material):
+    """(node name, input name) of the normal (a normal or bump map) the lookup of a
+    From Material ``material`` applies per pixel, or None."""
+    if material.glossy.model != "MATERIAL":
+        return None
+    from .material_source import parts as material_parts
+
+    derived = material_parts(material).derived
+    entry = (derived.spatial if derived is not None else {}).get("normal")
+    return (entry["node"], entry["input"]) if entry else None
+
+
+def decode_normals(image):
+    """(..., 3) unit world normals from a normal pass (:func:`input_pass_material`)."""
+    normals = 2.0 * np.asarray(image, dtype=np.float64)[..., :3] - 1.0
+    return normals / np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
+
+
+def input_pass_material(material, socket, kind="colour"):
     """A new material: ``material``'s own nodes (without Glossy's lookup) with their
     Material Output showing, as an Emission of strength 1, what feeds input
     ``socket`` = (node name, input name): a render of it is that input's value per
-    pixel. None where the link is gone."""
+    pixel (kind "colour"), or the world-space normal n as n / 2 + 1 / 2 (kind
+    "normal"; :func:`decode_normals`). None where the link is gone."""
     from .material_source import source_material
     from .nodes import strip_lookup, user_output
     from .spatial import input_socket
 
     copy = source_material(material).copy()
-    copy.name = f"{material.name} (Glossy colour pass)"
+    copy.name = f"{material.name} (Glossy {kind} pass)"
     copy.use_fake_user = False
     strip_lookup(copy)
     if copy.glossy.original is not None:
@@ -170,6 +190,13 @@ def colour_pass_material(material, socket):
         return None
     emission = copy.node_tree.nodes.new("ShaderNodeEmission")
     emission.inputs["Strength"].default_value = 1.0
+    if kind == "normal":
+        encode = copy.node_tree.nodes.new("ShaderNodeVectorMath")
+        encode.operation = "MULTIPLY_ADD"
+        encode.inputs[1].default_value = (0.5, 0.5, 0.5)
+        encode.inputs[2].default_value = (0.5, 0.5, 0.5)
+        copy.node_tree.links.new(feed, encode.inputs[0])
+        feed = encode.outputs["Vector"]
     copy.node_tree.links.new(feed, emission.inputs["Color"])
     copy.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
     return copy

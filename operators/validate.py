@@ -33,9 +33,9 @@ from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 
-#: Cycles samples of the Base Color pass (an emission: converged in a few; these
-#: anti-alias it as the truth renders are).
-COLOUR_PASS_SAMPLES = 16
+#: Cycles samples of the passes of per-pixel inputs (an emission: converged in a
+#: few; these anti-alias it as the truth renders are).
+INPUT_PASS_SAMPLES = 16
 
 
 def _glossy_materials(obj):
@@ -102,8 +102,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             self._cleanup()
             raise
         steps = [("cycles", 1), ("cycles", 2), ("eevee_native", 0), ("eevee_glossy", 0)]
-        if self._colour_passes:
-            steps.insert(2, ("colour_pass", 0))
+        for kind in sorted({kind for _, kind in self._passes}, reverse=True):
+            steps.insert(2, ("input_pass", kind))
         if self._careful:
             steps.append(("eevee_native_careful", 0))
         steps += [("reference", index) for index in range(len(self._targets))]
@@ -121,17 +121,26 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._size = glue.prepare_output(changes, scene, settings.validate_resolution)
         self._careful = glue.careful_differs(scene)
         self._truth, self._slots = {}, []
-        # Base Color textures the reference follows per pixel: a Cycles render of
-        # each one's value (an emission pass) and the plan that uses it.
-        self._colour_plans, self._colour_passes = {}, {}
+        # Inputs the reference follows per pixel: Base Color textures (with the plan
+        # that uses them) and normal or bump maps, each rendered by Cycles as an
+        # emission pass of its value: {(material name, kind): pass material}.
+        self._colour_plans, self._passes = {}, {}
         for _, materials in self._targets:
-            plan = glue.colour_plan(materials[0])
-            if plan is not None and materials[0].name not in self._colour_plans:
-                shown = glue.colour_pass_material(materials[0], plan[2])
-                if shown is not None:
-                    changes.created(bpy.data.materials, shown)
-                    self._colour_plans[materials[0].name] = plan
-                    self._colour_passes[materials[0].name] = shown
+            material = materials[0]
+            plan = glue.colour_plan(material)
+            wanted = [("colour", plan[2])] if plan is not None else []
+            if glue.normal_socket(material) is not None:
+                wanted.append(("normal", glue.normal_socket(material)))
+            for kind, socket in wanted:
+                if (material.name, kind) in self._passes:
+                    continue
+                shown = glue.input_pass_material(material, socket, kind)
+                if shown is None:
+                    continue
+                changes.created(bpy.data.materials, shown)
+                self._passes[(material.name, kind)] = shown
+                if kind == "colour":
+                    self._colour_plans[material.name] = plan
         for obj, materials in self._targets:
             for material in materials:
                 if material.name in self._truth:
@@ -185,13 +194,15 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                                  careful=kind == "eevee_native_careful")
             name = kind
             message = validation.METHOD_TITLES[kind]
-        elif kind == "colour_pass":
+        elif kind == "input_pass":
             self._use("truth")
             for slot, material in self._slots:
-                if material.name in self._colour_passes:
-                    slot.material = self._colour_passes[material.name]
-            glue.configure_cycles(self._changes, scene, COLOUR_PASS_SAMPLES, 1)
-            name, message = kind, "the Base Color textures' values"
+                if (material.name, value) in self._passes:
+                    slot.material = self._passes[(material.name, value)]
+            glue.configure_cycles(self._changes, scene, INPUT_PASS_SAMPLES, 1)
+            name = f"{value}_pass"
+            message = "the Base Color textures" if value == "colour" else \
+                "the normal and bump maps"
         elif kind == "reference":
             return self._reference_steps(value)
         else:
@@ -226,6 +237,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         radiance = np.zeros((*index_pass.shape, 3))
         if index_pass.any():
             normals = self._normals[index_pass]
+            if (material.name, "normal") in self._passes:  # the normal or bump map's
+                normals = glue.decode_normals(self._images["normal_pass"][index_pass])
             normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
             views = self._views[index_pass]
             cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
@@ -240,8 +253,11 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                 self._notes.append(f"{material.name}: the NumPy reference orients the "
                                    f"anisotropic lobe by a fixed hint, not the UV tangent")
             plan = self._colour_plans.get(material.name)
-            if plan is None:
-                self._note_per_pixel_inputs(obj, material)
+            self._note_per_pixel_inputs(obj, material)
+            if (material.name, "normal") in self._passes:
+                self._notes.append(f"{obj.name}: the NumPy reference takes each pixel's "
+                                   f"normal from the material's normal or bump map (a Cycles "
+                                   f"emission pass of it)")
             lamps, visibility = self._lamps(obj, self._positions[index_pass], normals)
             if plan is not None:
                 specs, combine, socket = plan
@@ -299,7 +315,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         value: its columns then include the texture's variation."""
         derived = material_parts(material).derived if material.glossy.model == "MATERIAL" \
             else None
-        spatial = getattr(derived, "spatial", None) or {}
+        spatial = {kind: entry for kind, entry in
+                   (getattr(derived, "spatial", None) or {}).items()
+                   if (material.name, kind) not in self._passes}
         if not spatial:
             return
         inputs = ", ".join(sorted(f"{entry.get('node', '?')}: {entry.get('input', kind)}"

@@ -2,11 +2,12 @@
 
     python validate_textured.py HDRI WORKDIR RESULT.json
 
-Two isolated spheres under a World Only probe (64 px faces): "Metal" (a
+Three isolated spheres under a World Only probe (64 px faces): "Metal" (a
 Principled metal, Roughness 0.3) and "Plastic" (a Principled dielectric,
 Roughness 0.3), each with its Base Color from a Checker Texture of two
-colours far apart (what a single value cannot stand for), read From
-Material. Neither sphere is in the other's reflections or shadows (ray
+colours far apart (what a single value cannot stand for), and "Bumpy" (the
+metal in one colour, its Normal from a Bump node over a Noise Texture), read
+From Material. Neither sphere is in the other's reflections or shadows (ray
 visibility, as tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp,
 96 px, EEVEE 4 samples. Writes each sphere's figures and the notes.
 """
@@ -32,7 +33,7 @@ settings.validate_samples = 256
 settings.validate_eevee_samples = 4
 
 
-def sphere(name, x, metallic):
+def sphere(name, x, metallic, bump=False):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
                                          location=(x, 0.0, 0.0))
     bpy.ops.object.shade_smooth()
@@ -49,16 +50,28 @@ def sphere(name, x, metallic):
     principled = tree.nodes["Principled BSDF"]
     principled.inputs["Metallic"].default_value = metallic
     principled.inputs["Roughness"].default_value = 0.3
-    checker = tree.nodes.new("ShaderNodeTexChecker")
-    checker.inputs["Scale"].default_value = 5.0
-    checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
-    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
-    tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+    if bump:  # a plain colour, the normal from a Bump node over a Noise Texture
+        principled.inputs["Base Color"].default_value = (0.9, 0.75, 0.6, 1.0)
+        noise = tree.nodes.new("ShaderNodeTexNoise")
+        noise.inputs["Scale"].default_value = 2.0
+        noise.inputs["Detail"].default_value = 0.0
+        relief = tree.nodes.new("ShaderNodeBump")
+        relief.inputs["Strength"].default_value = 1.0
+        relief.inputs["Distance"].default_value = 0.5
+        tree.links.new(noise.outputs["Fac"], relief.inputs["Height"])
+        tree.links.new(relief.outputs["Normal"], principled.inputs["Normal"])
+    else:
+        checker = tree.nodes.new("ShaderNodeTexChecker")
+        checker.inputs["Scale"].default_value = 5.0
+        checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
+        checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+        tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
     obj.data.materials.append(material)
     return obj
 
 
-spheres = [sphere("Metal", -1.25, 1.0), sphere("Plastic", 1.25, 0.0)]
+spheres = [sphere("Metal", -2.5, 1.0), sphere("Plastic", 0.0, 0.0),
+           sphere("Bumpy", 2.5, 1.0, bump=True)]
 steps = {}
 for obj in spheres:
     bpy.ops.object.select_all(action="DESELECT")
