@@ -378,11 +378,12 @@ def _corner_geometry(obj_eval):
     return positions, corners.reshape(-1, 3), verts.reshape(-1, 3), polygons, normals
 
 
-def pixel_geometry(scene, camera, width, height, objects):
+def pixel_geometry(scene, camera, width, height, objects, slots=False):
     """Per pixel: the number (1..N) of the object of ``objects`` its centre ray meets
     first (0: another object or nothing), the world position there and the shading
     normal (corner normals interpolated over the hit triangle, as Cycles shades a
-    smooth mesh): (H, W), (H, W, 3), (H, W, 3)."""
+    smooth mesh): (H, W), (H, W, 3), (H, W, 3); with ``slots``, also the material
+    slot index of the face hit (H, W) (-1 where no object of ``objects`` is)."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     origins, directions = camera_rays(scene, camera, width, height)
     index = np.zeros((height, width), dtype=int)
@@ -398,11 +399,18 @@ def pixel_geometry(scene, camera, width, height, objects):
                 index[row, col] = wanted[hit_obj.original.name]
                 positions[row, col] = location
                 faces[row, col] = face
+    slot = np.full((height, width), -1, dtype=int)
     for obj in objects:
         pixels = index == wanted[obj.name]
         if pixels.any():
-            normals[pixels] = _smooth_normals(obj.evaluated_get(depsgraph), positions[pixels],
-                                              faces[pixels])
+            evaluated = obj.evaluated_get(depsgraph)
+            normals[pixels] = _smooth_normals(evaluated, positions[pixels], faces[pixels])
+            polygons = evaluated.data.polygons
+            material_index = np.zeros(len(polygons), dtype=int)
+            polygons.foreach_get("material_index", material_index)
+            slot[pixels] = material_index[faces[pixels]]
+    if slots:
+        return index, positions, normals, slot
     return index, positions, normals
 
 

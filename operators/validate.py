@@ -121,6 +121,12 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._size = glue.prepare_output(changes, scene, settings.validate_resolution)
         self._careful = glue.careful_differs(scene)
         self._truth, self._slots = {}, []
+        # {object: {slot index: Glossy material name}}: which faces the reference
+        # shades with which material (pixel_geometry's slot per pixel).
+        self._slot_materials = {
+            obj.name: {i: slot.material.name for i, slot in enumerate(obj.material_slots)
+                       if slot.material in materials}
+            for obj, materials in self._targets}
         # Inputs the reference follows per pixel: Base Color textures (with the plan
         # that uses them) and normal or bump maps, each rendered by Cycles as an
         # emission pass of its value: {(material name, kind): pass material}.
@@ -210,8 +216,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         self._images[name] = glue.render_to(scene, self._work / f"{name}.exr")
         if name == "cycles_seed1":  # what each pixel's centre ray meets, as Cycles saw it
             width, height = self._size
-            self._index, self._positions, self._normals = glue.pixel_geometry(
-                scene, scene.camera, width, height, [obj for obj, _ in self._targets])
+            self._index, self._positions, self._normals, self._slot = glue.pixel_geometry(
+                scene, scene.camera, width, height, [obj for obj, _ in self._targets],
+                slots=True)
             # Toward the camera along each pixel's centre ray: exact for perspective
             # and orthographic cameras alike.
             self._views = -glue.camera_rays(scene, scene.camera, width, height)[1]
@@ -219,74 +226,91 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         return f"rendered {message} in {self._timings[name]:.1f} s"
 
     def _mask(self, index):
-        return metrics.erode(self._index == index + 1, 1)
+        """The pixels of target ``index`` on faces with a Glossy material, each
+        material's region eroded by one pixel (its silhouette and the edges between
+        materials, where a pixel's filter mixes what its centre does not see)."""
+        obj = self._targets[index][0]
+        mask = np.zeros(self._index.shape, dtype=bool)
+        for name in set(self._slot_materials[obj.name].values()):
+            slots = [i for i, m in self._slot_materials[obj.name].items() if m == name]
+            mask |= metrics.erode((self._index == index + 1) & np.isin(self._slot, slots), 1)
+        return mask
 
     def _reference_steps(self, index):
         """The NumPy reference of one object at its pixels (a generator: one part per
-        chunk of pixels)."""
+        chunk of pixels), each face with its own Glossy material."""
         start = time.perf_counter()
         obj, materials = self._targets[index]
         probe, meta = exr.read(bpy.path.abspath(obj.glossy.probe_path))
         probe = probe[..., :3]
         layout = meta.get("layout", "cube")
         index_pass = self._index == index + 1
-        material = materials[0]  # one reference per object: the Object Index pass has no
-        if len(materials) > 1:  # per-face material split, so the first material stands
-            self._notes.append(f"{obj.name}: {len(materials)} Glossy materials; the NumPy "
-                               f"reference uses {material.name} for all its pixels")
         radiance = np.zeros((*index_pass.shape, 3))
-        if index_pass.any():
-            normals = self._normals[index_pass]
-            if (material.name, "normal") in self._passes:  # the normal or bump map's
-                normals = glue.decode_normals(self._images["normal_pass"][index_pass])
-            normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-            views = self._views[index_pass]
-            cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
-            fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
-                if material.glossy.fresnel_ior > 1.0 else None
-            total = np.zeros((len(normals), 3))
-            tangent, _ = effective_tangent(material, obj)
-            tangents = None  # bake.reference's hint frame: the lobe is isotropic
-            if tangent[0] == "RADIAL":
-                tangents = glue.radial_tangents(obj, self._positions[index_pass], tangent[1])
-            elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
-                self._notes.append(f"{material.name}: the NumPy reference orients the "
-                                   f"anisotropic lobe by a fixed hint, not the UV tangent")
-            plan = self._colour_plans.get(material.name)
-            self._note_per_pixel_inputs(obj, material)
-            if (material.name, "normal") in self._passes:
-                self._notes.append(f"{obj.name}: the NumPy reference takes each pixel's "
-                                   f"normal from the material's normal or bump map (a Cycles "
-                                   f"emission pass of it)")
-            lamps, visibility = self._lamps(obj, self._positions[index_pass], normals)
-            if plan is not None:
-                specs, combine, socket = plan
-                values = []
-                for spec in specs:
-                    values.append((yield from self._integrate(
-                        obj, brdf.parse(spec), probe, layout, normals, views, tangents,
-                        lamps, visibility, index_pass)))
-                colour = self._images["colour_pass"][index_pass][:, :3]
-                radiance[index_pass] = combine(values, colour, cos_v)
-                self._notes.append(
-                    f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
-                    f"pixel (its value rendered by Cycles as an emission pass; the "
-                    f"reflection from integrals at colours 0 and 1, bake.colour_response)")
-                self._references[obj.name] = radiance
-                self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
-                return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
-            for model, weight in glue.reference_parts(material):
-                part = yield from self._integrate(obj, model, probe, layout, normals, views,
-                                                  tangents, lamps, visibility, index_pass)
-                if weight == "fresnel":
-                    part = part * fresnel_weight[:, None]
-                elif weight == "one_minus_fresnel":
-                    part = part * (1.0 - fresnel_weight)[:, None]
-                total += part
-            radiance[index_pass] = total
+        slots = self._slot_materials[obj.name]
+        if len(materials) > 1:
+            self._notes.append(f"{obj.name}: {len(materials)} Glossy materials; the NumPy "
+                               f"reference shades each face with its own")
+        other = index_pass & ~np.isin(self._slot, list(slots))
+        if other.any():
+            self._notes.append(f"{obj.name}: {int(other.sum())} pixel(s) of faces without a "
+                               f"Glossy material are left out of its figures")
+        for material in materials:
+            pixels = index_pass & np.isin(self._slot, [i for i, m in slots.items()
+                                                        if m == material.name])
+            if pixels.any():
+                radiance[pixels] = yield from self._material_reference(
+                    obj, material, pixels, probe, layout)
         self._references[obj.name] = radiance
         self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
         return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"
+
+    def _material_reference(self, obj, material, pixels, probe, layout):
+        """(P, 3) the reference of ``obj``'s ``pixels`` (H, W) shaded with ``material``
+        (a generator, yielding progress)."""
+        normals = self._normals[pixels]
+        if (material.name, "normal") in self._passes:  # the normal or bump map's
+            normals = glue.decode_normals(self._images["normal_pass"][pixels])
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        views = self._views[pixels]
+        cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
+        fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
+            if material.glossy.fresnel_ior > 1.0 else None
+        tangent, _ = effective_tangent(material, obj)
+        tangents = None  # bake.reference's hint frame: the lobe is isotropic
+        if tangent[0] == "RADIAL":
+            tangents = glue.radial_tangents(obj, self._positions[pixels], tangent[1])
+        elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
+            self._notes.append(f"{material.name}: the NumPy reference orients the "
+                               f"anisotropic lobe by a fixed hint, not the UV tangent")
+        plan = self._colour_plans.get(material.name)
+        self._note_per_pixel_inputs(obj, material)
+        if (material.name, "normal") in self._passes:
+            self._notes.append(f"{obj.name}: the NumPy reference takes each pixel's "
+                               f"normal from the material's normal or bump map (a Cycles "
+                               f"emission pass of it)")
+        lamps, visibility = self._lamps(obj, self._positions[pixels], normals)
+        if plan is not None:
+            specs, combine, socket = plan
+            values = []
+            for spec in specs:
+                values.append((yield from self._integrate(
+                    obj, brdf.parse(spec), probe, layout, normals, views, tangents,
+                    lamps, visibility, pixels)))
+            self._notes.append(
+                f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
+                f"pixel (its value rendered by Cycles as an emission pass; the "
+                f"reflection from integrals at colours 0 and 1, bake.colour_response)")
+            return combine(values, self._images["colour_pass"][pixels][:, :3], cos_v)
+        total = np.zeros((len(normals), 3))
+        for model, weight in glue.reference_parts(material):
+            part = yield from self._integrate(obj, model, probe, layout, normals, views,
+                                              tangents, lamps, visibility, pixels)
+            if weight == "fresnel":
+                part = part * fresnel_weight[:, None]
+            elif weight == "one_minus_fresnel":
+                part = part * (1.0 - fresnel_weight)[:, None]
+            total += part
+        return total
 
     def _integrate(self, obj, model, probe, layout, normals, views, tangents, lamps,
                    visibility, index_pass):

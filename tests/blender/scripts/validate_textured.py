@@ -7,9 +7,11 @@ Principled metal, Roughness 0.3) and "Plastic" (a Principled dielectric,
 Roughness 0.3), each with its Base Color from a Checker Texture of two
 colours far apart (what a single value cannot stand for), and "Bumpy" (the
 metal in one colour, its Normal from a Bump node over a Noise Texture), read
-From Material. Neither sphere is in the other's reflections or shadows (ray
-visibility, as tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp,
-96 px, EEVEE 4 samples. Writes each sphere's figures and the notes.
+From Material. Plastic's upper half has a second material, "Red metal" (GGX
+0.3): the reference shades each face with its own. Neither sphere is in
+the other's reflections or shadows (ray visibility, as
+tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp, 96 px, EEVEE 4
+samples. Writes each sphere's figures and the notes.
 """
 
 import json
@@ -72,6 +74,17 @@ def sphere(name, x, metallic, bump=False):
 
 spheres = [sphere("Metal", -2.5, 1.0), sphere("Plastic", 0.0, 0.0),
            sphere("Bumpy", 2.5, 1.0, bump=True)]
+# Two materials on one mesh: Plastic's upper half a red GGX 0.3 metal of its own.
+upper = bpy.data.materials.new("Red metal")
+upper.use_nodes = True
+red = upper.node_tree.nodes["Principled BSDF"]
+red.inputs["Base Color"].default_value = (0.9, 0.2, 0.15, 1.0)
+red.inputs["Metallic"].default_value = 1.0
+red.inputs["Roughness"].default_value = 0.3
+plastic = spheres[1]
+plastic.data.materials.append(upper)
+for polygon in plastic.data.polygons:
+    polygon.material_index = 1 if polygon.center.z > 0.0 else 0
 steps = {}
 for obj in spheres:
     bpy.ops.object.select_all(action="DESELECT")
