@@ -43,6 +43,8 @@ BRDF's a near-mirror lobe under a large one. Checked against closed forms
 """
 
 import functools
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,8 +59,9 @@ SAMPLES = 512
 #: Shadow rays per pixel toward a lamp with extent (one toward a lamp without):
 #: the visibility a caller passes is the fraction of them unblocked.
 SHADOW_RAYS = 16
-#: Pixels per batch (bounds memory: batch x SAMPLES x 3 doubles per array).
-BATCH = 1024
+#: Pixels per batch (bounds memory: batch x SAMPLES x 3 doubles per array, a
+#: few batches at once on the worker threads).
+BATCH = 512
 KINDS = ("POINT", "SPOT", "SUN", "AREA")
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 #: R2 sequence (Roberts 2018): per-pixel shifts of the Hammersley points.
@@ -346,7 +349,8 @@ def _test_rays(test, index, normals, points, directions, distances):
 
 
 def radiance(model, lamps, positions, normals, views, *, tangents=None,
-             tangent_hint=(0.3, 0.5, 0.8), visibility=None, unblocked=None, samples=SAMPLES):
+             tangent_hint=(0.3, 0.5, 0.8), visibility=None, unblocked=None, samples=SAMPLES,
+             threads=None):
     """(N, 3) radiance toward the viewer reflected from ``lamps`` (a sequence of Lamp).
 
     positions, normals, views: (N, 3) world points, unit normals and unit
@@ -359,6 +363,7 @@ def radiance(model, lamps, positions, normals, views, *, tangents=None,
     each sample's ray; where given, pixels whose visibility is strictly between
     0 and 1 have every sample tested (the penumbra weighed by the lobe, not by
     the lamp's area), the others take the factor. samples: per technique.
+    threads: worker threads for the arithmetic (default two, or one on one core).
     """
     normals, views, tangents = pixel_arrays(normals, views, tangents)
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
@@ -367,36 +372,46 @@ def radiance(model, lamps, positions, normals, views, *, tangents=None,
     if visibility is not None:
         visibility = np.asarray(visibility, dtype=np.float64).reshape(len(normals), len(lamps))
     out = np.zeros((len(normals), 3))
-    for start in range(0, len(normals), BATCH):
-        stop = min(start + BATCH, len(normals))
-        frames = _frames(normals[start:stop], None if tangents is None
-                         else tangents[start:stop], tangent_hint)
-        wo_local = np.einsum("pij,pj->pi", frames, views[start:stop])
-        points = positions[start:stop]
-        for index, lamp in enumerate(lamps):
-            reach = _reaches(lamp, points, normals[start:stop])
-            if visibility is not None:
-                reach &= visibility[start:stop, index] > 0.0
-            if not reach.any():
-                continue
-            at = np.flatnonzero(reach)
-            if lamp.delta:
-                part = _delta(model, lamp, points[at], frames[at], wo_local[at])
+    # The arithmetic runs on two worker threads (NumPy releases the GIL in it);
+    # ``unblocked`` (Blender's ray casts) only ever on the calling thread.
+    pool = ThreadPoolExecutor(max_workers=threads or min(2, os.cpu_count() or 1))
+    pending = []
+    try:
+        for start in range(0, len(normals), BATCH):
+            stop = min(start + BATCH, len(normals))
+            frames = _frames(normals[start:stop], None if tangents is None
+                             else tangents[start:stop], tangent_hint)
+            wo_local = np.einsum("pij,pj->pi", frames, views[start:stop])
+            points = positions[start:stop]
+            for index, lamp in enumerate(lamps):
+                reach = _reaches(lamp, points, normals[start:stop])
                 if visibility is not None:
-                    part = part * visibility[start + at, index, None]
-                out[start + at] += part
-                continue
-            factor = np.ones(len(at)) if visibility is None else visibility[start + at, index]
-            penumbra = (factor < 1.0) if unblocked is not None else np.zeros(len(at), bool)
-            for subset, test in ((~penumbra, None), (penumbra, unblocked)):
-                if not subset.any():
+                    reach &= visibility[start:stop, index] > 0.0
+                if not reach.any():
                     continue
-                pick = at[subset]
-                ray_test = None if test is None else functools.partial(
-                    _test_rays, test, index, normals[start + pick])
-                part = _extended(model, lamp, points[pick], frames[pick], wo_local[pick],
-                                 start + pick, int(samples), ray_test)
-                if test is None:
-                    part = part * factor[subset, None]
-                out[start + pick] += part
+                at = np.flatnonzero(reach)
+                factor = np.ones(len(at)) if visibility is None else \
+                    visibility[start + at, index]
+                if lamp.delta:
+                    part = _delta(model, lamp, points[at], frames[at], wo_local[at])
+                    out[start + at] += part * factor[:, None]
+                    continue
+                penumbra = (factor < 1.0) if unblocked is not None else \
+                    np.zeros(len(at), bool)
+                free = at[~penumbra]
+                if len(free):
+                    pending.append((start + free, factor[~penumbra], pool.submit(
+                        _extended, model, lamp, points[free], frames[free], wo_local[free],
+                        start + free, int(samples))))
+                if penumbra.any():
+                    pick = at[penumbra]
+                    ray_test = functools.partial(_test_rays, unblocked, index,
+                                                 normals[start + pick])
+                    out[start + pick] += _extended(model, lamp, points[pick], frames[pick],
+                                                   wo_local[pick], start + pick, int(samples),
+                                                   ray_test)
+        for where, factor, future in pending:
+            out[where] += future.result() * factor[:, None]
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
     return out

@@ -327,10 +327,13 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             reconstruction="bilinear"))
         if lamps:
             yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
+            start = time.perf_counter()
             part = part + lamp_reference.radiance(
                 model, lamps, self._positions[index_pass], normals, views,
                 tangents=tangents, visibility=visibility,
                 unblocked=glue.lamp_ray_test(bpy.context.scene, lamps))
+            key = f"reference_lamps_{obj.name}"
+            self._timings[key] = self._timings.get(key, 0.0) + time.perf_counter() - start
         return part
 
     def _note_per_pixel_inputs(self, obj, material):
@@ -366,7 +369,11 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                     f"object lies between the pixel and the lamp's centre")
         if not lamps:
             return [], None
-        return lamps, glue.lamp_visibility(scene, lamps, positions, normals)
+        start = time.perf_counter()
+        visibility = glue.lamp_visibility(scene, lamps, positions, normals)
+        key = f"reference_lamps_{obj.name}"
+        self._timings[key] = self._timings.get(key, 0.0) + time.perf_counter() - start
+        return lamps, visibility
 
     def _write_report(self, context):
         scene = context.scene
