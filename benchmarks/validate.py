@@ -9,6 +9,11 @@
    GGX 0.3, sunset probes of 64 and 128 px faces): pixels per second of each
    (the loop timed on a subset of the pixels: its cost per pixel is constant),
    their ratio (target at least 20x), and the reference's difference from it.
+3. bake.lamp_reference.radiance (the lamps' part of the reference, stop 53) on
+   the same sphere pixels, a Principled metal at Roughness 0.3, one lamp of
+   each kind with extent: pixels per second on one thread and on the default
+   two (the baseline and the ratio, in the same run), and each estimate's
+   relative RMS difference from one at 8x the samples.
 
     .venv/bin/python benchmarks/validate.py [--skip-blender] [--samples 128]
 """
@@ -102,6 +107,37 @@ def throughput():
               f"{'met' if rate >= 20 * loop_rate else 'MISSED'}); difference {error:.1e}")
 
 
+def lamps_throughput():
+    from bake.lamp_reference import SAMPLES, Lamp, radiance
+
+    normals, views, mask = reference.sphere_buffers(128)
+    n, v = normals[mask], views[mask]
+    model = brdf.parse("principled:base_color=0.9/0.7/0.5,metallic=1,roughness=0.3")
+    down = ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0))  # shining along +Z
+    lamps = {
+        "point, radius 0.3": Lamp("POINT", (300.0,) * 3, position=(2.0, -3.0, 2.5),
+                                  radius=0.3),
+        "sun, 5 degrees": Lamp("SUN", (1.5,) * 3, axes=((1.0, 0.0, 0.0), (0.0, 0.6, -0.8),
+                                                        (0.0, 0.8, 0.6)),
+                               angle=np.radians(5.0)),
+        "area 1.5 x 0.5": Lamp("AREA", (250.0,) * 3, position=(0.0, 0.0, -3.0), axes=down,
+                               shape="RECTANGLE", size=(1.5, 0.5)),
+    }
+    print(f"3. The lamps' part, Principled metal 0.3, {len(n)} sphere pixels, {SAMPLES} "
+          f"samples per technique")
+    for name, lamp in lamps.items():
+        start = time.perf_counter()
+        one = radiance(model, [lamp], n, n, v, threads=1)
+        single = len(n) / (time.perf_counter() - start)
+        start = time.perf_counter()
+        radiance(model, [lamp], n, n, v)
+        rate = len(n) / (time.perf_counter() - start)
+        converged = radiance(model, [lamp], n, n, v, samples=8 * SAMPLES) @ LUM
+        error = np.sqrt(np.sum((one @ LUM - converged) ** 2) / np.sum(converged ** 2))
+        print(f"   {name:18s}: 1 thread {single:7.0f} px/s, default {rate:7.0f} px/s, "
+              f"ratio {rate / single:4.2f}x; against {8 * SAMPLES} samples {error:.1e}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--skip-blender", action="store_true")
@@ -110,6 +146,7 @@ def main():
     if not args.skip_blender:
         validation_cost(args.samples)
     throughput()
+    lamps_throughput()
 
 
 if __name__ == "__main__":
