@@ -131,8 +131,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         # that uses them) and normal or bump maps, each rendered by Cycles as an
         # emission pass of its value: {(material name, kind): pass material}.
         self._colour_plans, self._passes = {}, {}
-        for _, materials in self._targets:
-            material = materials[0]
+        for material in {m.name: m for _, materials in self._targets
+                         for m in materials}.values():
             plan = glue.colour_plan(material)
             wanted = [("colour", plan[2])] if plan is not None else []
             if glue.normal_socket(material) is not None:
@@ -365,8 +365,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             if lamps:
                 self._notes.append(
                     f"the NumPy reference adds the light of {len(lamps)} lamp(s) "
-                    f"({', '.join(lamp.name for lamp in lamps)}), each shadowed where an "
-                    f"object lies between the pixel and the lamp's centre")
+                    f"({', '.join(lamp.name for lamp in lamps)}), shadowed by the scene's "
+                    f"objects (16 rays to each lamp per pixel; in a penumbra every "
+                    f"sample's ray)")
         if not lamps:
             return [], None
         start = time.perf_counter()
