@@ -23,6 +23,22 @@ CYCLES_DISTRIBUTIONS = {"ggx": "GGX", "beckmann": "BECKMANN",
                         "ashikhmin_shirley": "ASHIKHMIN_SHIRLEY", "ggx_multiscatter": "MULTI_GGX"}
 
 
+def user_copy(material, label):
+    """A new material ``<name> (<label>)``: a copy of the user's own nodes of a From
+    Material ``material`` (its kept original where an attach replaced them),
+    without Glossy's lookup, its own Material Output active."""
+    from .material_source import source_material
+    from .nodes import strip_lookup
+
+    copy = source_material(material).copy()
+    copy.name = f"{material.name} ({label})"
+    copy.use_fake_user = False
+    strip_lookup(copy)
+    if copy.glossy.original is not None:
+        copy.glossy.original = None
+    return copy
+
+
 def truth_material(material, tangent=None):
     """(a new material with the true BSDF of ``material``'s Glossy settings, None) or
     (None, why Cycles cannot render it). Glossy BSDF (plus a Diffuse BSDF for the
@@ -31,16 +47,7 @@ def truth_material(material, tangent=None):
     the material's own, glossy_addon.materials.effective_tangent)."""
     settings = material.glossy
     if settings.model == "MATERIAL":  # the user's own material is the truth
-        from .material_source import source_material
-        from .nodes import strip_lookup
-
-        truth = source_material(material).copy()
-        truth.name = f"{material.name} (Glossy truth)"
-        truth.use_fake_user = False
-        strip_lookup(truth)
-        if truth.glossy.original is not None:
-            truth.glossy.original = None
-        return truth, None
+        return user_copy(material, "Glossy truth"), None
     try:
         model = brdf.parse(settings.brdf_spec())
     except (BakeError, ValueError) as error:
@@ -173,16 +180,10 @@ def input_pass_material(material, socket, kind="colour"):
     ``socket`` = (node name, input name): a render of it is that input's value per
     pixel (kind "colour"), or the world-space normal n as n / 2 + 1 / 2 (kind
     "normal"; :func:`decode_normals`). None where the link is gone."""
-    from .material_source import source_material
-    from .nodes import strip_lookup, user_output
+    from .nodes import user_output
     from .spatial import input_socket
 
-    copy = source_material(material).copy()
-    copy.name = f"{material.name} (Glossy {kind} pass)"
-    copy.use_fake_user = False
-    strip_lookup(copy)
-    if copy.glossy.original is not None:
-        copy.glossy.original = None
+    copy = user_copy(material, f"Glossy {kind} pass")
     feed = input_socket(copy, *socket)
     output = user_output(copy)
     if feed is None or output is None:

@@ -26,20 +26,10 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-import glossy  # noqa: E402
-from _operators import shader_material  # noqa: E402
-from glossy.glossy_addon.scenes import environment_world  # noqa: E402
+from _operators import shader_material, validation_scene  # noqa: E402
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-glossy.register()
-scene = bpy.context.scene
-bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "lamps.blend"))
-environment_world(scene, hdri)
+scene = validation_scene(hdri, workdir, 96)
 scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.2
-settings = scene.glossy
-settings.validate_resolution = 96
-settings.validate_samples = 256
-settings.validate_eevee_samples = 4
 
 bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0)
 bpy.ops.object.shade_smooth()
@@ -48,12 +38,10 @@ shiny.name = "Shiny"
 shiny.glossy.probe_source = "WORLD"
 shiny.glossy.probe_size_mode = "FIXED"
 shiny.glossy.probe_resolution = 64
-material = bpy.data.materials.new("Metal")
-material.use_nodes = True
-principled = material.node_tree.nodes["Principled BSDF"]
-principled.inputs["Base Color"].default_value = (0.9, 0.7, 0.5, 1.0)
-principled.inputs["Metallic"].default_value = 1.0
-principled.inputs["Roughness"].default_value = 0.3
+material, _, principled = shader_material("Metal")
+for name, value in (("Base Color", (0.9, 0.7, 0.5, 1.0)), ("Metallic", 1.0),
+                    ("Roughness", 0.3)):
+    principled.inputs[name].default_value = value
 shiny.data.materials.append(material)
 
 bpy.ops.mesh.primitive_cube_add(size=0.35, location=(1.2, -1.5, -0.2))

@@ -21,18 +21,9 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-import glossy  # noqa: E402
-from glossy.glossy_addon.scenes import environment_world  # noqa: E402
+from _operators import shader_material, validation_scene  # noqa: E402
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-glossy.register()
-scene = bpy.context.scene
-bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "textured.blend"))
-environment_world(scene, hdri)
-settings = scene.glossy
-settings.validate_resolution = 96
-settings.validate_samples = 256
-settings.validate_eevee_samples = 4
+scene = validation_scene(hdri, workdir, 96)
 
 
 def sphere(name, x, metallic, bump=False):
@@ -75,12 +66,10 @@ def sphere(name, x, metallic, bump=False):
 spheres = [sphere("Metal", -2.5, 1.0), sphere("Plastic", 0.0, 0.0),
            sphere("Bumpy", 2.5, 1.0, bump=True)]
 # Two materials on one mesh: Plastic's upper half a red GGX 0.3 metal of its own.
-upper = bpy.data.materials.new("Red metal")
-upper.use_nodes = True
-red = upper.node_tree.nodes["Principled BSDF"]
-red.inputs["Base Color"].default_value = (0.9, 0.2, 0.15, 1.0)
-red.inputs["Metallic"].default_value = 1.0
-red.inputs["Roughness"].default_value = 0.3
+upper, _, red = shader_material("Red metal")
+for name, value in (("Base Color", (0.9, 0.2, 0.15, 1.0)), ("Metallic", 1.0),
+                    ("Roughness", 0.3)):
+    red.inputs[name].default_value = value
 plastic = spheres[1]
 plastic.data.materials.append(upper)
 for polygon in plastic.data.polygons:
