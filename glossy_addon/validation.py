@@ -106,10 +106,12 @@ def truth_material(material, tangent=None):
     return truth, None
 
 
-def colour_plan(material):
+def colour_plan(material, spec=None):
     """(specs, combine, socket) where the NumPy reference can follow a Base Color
     texture per pixel exactly, else None: a From Material Principled BSDF alone
-    whose only input applied per pixel is Base Color. specs: the bake.brdf specs
+    whose inputs applied per pixel are Base Color and, at most, a normal map and a
+    roughness texture (``spec``: the BSDF at one roughness; default the read
+    one). specs: the bake.brdf specs
     to integrate; combine(values, colour, mu): the reflection at each pixel from
     their integrals (a list of (N, 3)), the pixel's colour (N, 3) and view cosine
     (N,); socket: (node name, input name) of the colour. A metal (Metallic 1)
@@ -125,10 +127,10 @@ def colour_plan(material):
     derived = material_parts(material).derived
     spatial = derived.spatial if derived is not None else {}
     entry = spatial.get("colour")
-    if entry is None or not set(spatial) <= {"colour", "normal"} or \
+    if entry is None or not set(spatial) <= {"colour", "normal", "roughness"} or \
             entry.get("input") != "Base Color":
         return None
-    model = brdf.parse(derived.spec)
+    model = brdf.parse(spec or derived.spec)
     if not isinstance(model, Principled):
         return None
     socket = (entry["node"], entry["input"])
@@ -154,6 +156,51 @@ def colour_plan(material):
 
         return specs, affine, socket
     return None
+
+
+#: Neighbouring roughness knots of the reference's per-pixel roughness are at most
+#: this ratio apart (the lookup's maps: 1.25), and there are at most REFERENCE_KNOTS.
+REFERENCE_ROUGHNESS_RATIO = 1.1
+REFERENCE_KNOTS = 24
+
+
+def roughness_socket(material):
+    """(node name, input name) of a roughness texture the lookup of a From Material
+    ``material`` applies per pixel (a Principled or Glossy BSDF alone), or None."""
+    if material.glossy.model != "MATERIAL":
+        return None
+    from .material_source import parts as material_parts
+
+    derived = material_parts(material).derived
+    entry = (derived.spatial if derived is not None else {}).get("roughness")
+    return (entry["node"], entry["input"]) if entry else None
+
+
+def roughness_weights(roughness):
+    """(knots (K,), weights (N, K)): geometric roughness knots spanning the pixels'
+    roughness values (N,) at most REFERENCE_ROUGHNESS_RATIO apart, and each pixel's
+    linear weights in log roughness on its two neighbouring knots (rows sum to
+    1). The reference at each knot, weighed so, follows the texture per pixel to
+    second order in the knots' spacing."""
+    from .spatial import MIN_ROUGHNESS
+
+    roughness = np.clip(np.asarray(roughness, dtype=np.float64), MIN_ROUGHNESS, 1.0)
+    low, high = float(roughness.min()), float(roughness.max())
+    count = 1 if high / low < 1.0 + 1e-6 else min(
+        REFERENCE_KNOTS,
+        max(2, int(np.ceil(np.log(high / low) / np.log(REFERENCE_ROUGHNESS_RATIO))) + 1))
+    knots = low * (high / low) ** (np.arange(count) / max(count - 1, 1))
+    weights = np.zeros((len(roughness), count))
+    if count == 1:
+        weights[:, 0] = 1.0
+        return knots, weights
+    position = np.log(roughness / low) / np.log(high / low) * (count - 1)
+    lower = np.clip(np.floor(position).astype(int), 0, count - 2)
+    fraction = np.clip(position - lower, 0.0, 1.0)
+    rows = np.arange(len(roughness))
+    weights[rows, lower] = 1.0 - fraction
+    weights[rows, lower + 1] += fraction
+    return knots, weights
 
 
 def normal_socket(material):

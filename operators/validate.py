@@ -15,6 +15,7 @@ import os
 import shutil
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import bpy
@@ -32,10 +33,38 @@ from ..glossy_addon.materials import effective_tangent
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
+from ..glossy_addon.spatial import with_roughness
 
 #: Cycles samples of the passes of per-pixel inputs (an emission: converged in a
 #: few; these anti-alias it as the truth renders are).
 INPUT_PASS_SAMPLES = 16
+
+
+@dataclass
+class _Pixels:
+    """One material's pixels as the reference shades them: world positions, unit
+    normals and views (P, 3), tangents (P, 3) or None, the Base Color pass's
+    colours (P, 3) or None, the lamps and their visibility (P, lamps) or None."""
+
+    positions: np.ndarray
+    normals: np.ndarray
+    views: np.ndarray
+    tangents: np.ndarray | None
+    colour: np.ndarray | None = None
+    lamps: list = field(default_factory=list)
+    visibility: np.ndarray | None = None
+
+    @property
+    def cos_view(self):
+        return np.clip(np.sum(self.normals * self.views, axis=1), 0.0, 1.0)
+
+    def subset(self, use):
+        """The pixels where ``use`` (P,) is True."""
+        def pick(array):
+            return None if array is None else array[use]
+        return _Pixels(self.positions[use], self.normals[use], self.views[use],
+                       pick(self.tangents), pick(self.colour), self.lamps,
+                       pick(self.visibility))
 
 
 def _glossy_materials(obj):
@@ -137,6 +166,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             wanted = [("colour", plan[2])] if plan is not None else []
             if glue.normal_socket(material) is not None:
                 wanted.append(("normal", glue.normal_socket(material)))
+            if glue.roughness_socket(material) is not None:
+                wanted.append(("roughness", glue.roughness_socket(material)))
             for kind, socket in wanted:
                 if (material.name, kind) in self._passes:
                     continue
@@ -207,8 +238,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                     slot.material = self._passes[(material.name, value)]
             glue.configure_cycles(self._changes, scene, INPUT_PASS_SAMPLES, 1)
             name = f"{value}_pass"
-            message = "the Base Color textures" if value == "colour" else \
-                "the normal and bump maps"
+            message = {"colour": "the Base Color textures", "normal": "the normal and bump "
+                       "maps", "roughness": "the roughness textures"}[value]
         elif kind == "reference":
             return self._reference_steps(value)
         else:
@@ -271,40 +302,61 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         if (material.name, "normal") in self._passes:  # the normal or bump map's
             normals = glue.decode_normals(self._images["normal_pass"][pixels])
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-        views = self._views[pixels]
-        cos_v = np.clip(np.sum(normals * views, axis=1), 0.0, 1.0)
-        fresnel_weight = fresnel.dielectric(cos_v, material.glossy.fresnel_ior) \
-            if material.glossy.fresnel_ior > 1.0 else None
+        at = _Pixels(self._positions[pixels], normals, self._views[pixels], None)
         tangent, _ = effective_tangent(material, obj)
-        tangents = None  # bake.reference's hint frame: the lobe is isotropic
-        if tangent[0] == "RADIAL":
-            tangents = glue.radial_tangents(obj, self._positions[pixels], tangent[1])
+        if tangent[0] == "RADIAL":  # else bake.reference's hint frame: the lobe is isotropic
+            at.tangents = glue.radial_tangents(obj, at.positions, tangent[1])
         elif not all(model.isotropic for model, _ in glue.reference_parts(material)):
             self._notes.append(f"{material.name}: the NumPy reference orients the "
                                f"anisotropic lobe by a fixed hint, not the UV tangent")
-        plan = self._colour_plans.get(material.name)
         self._note_per_pixel_inputs(obj, material)
         if (material.name, "normal") in self._passes:
             self._notes.append(f"{obj.name}: the NumPy reference takes each pixel's "
                                f"normal from the material's normal or bump map (a Cycles "
                                f"emission pass of it)")
-        lamps, visibility = self._lamps(obj, self._positions[pixels], normals)
-        if plan is not None:
-            specs, combine, socket = plan
-            values = []
-            for spec in specs:
-                values.append((yield from self._integrate(
-                    obj, brdf.parse(spec), probe, layout, normals, views, tangents,
-                    lamps, visibility, pixels)))
+        if material.name in self._colour_plans:
+            socket = self._colour_plans[material.name][2]
+            at.colour = self._images["colour_pass"][pixels][:, :3]
             self._notes.append(
                 f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
                 f"pixel (its value rendered by Cycles as an emission pass; the "
                 f"reflection from integrals at colours 0 and 1, bake.colour_response)")
-            return combine(values, self._images["colour_pass"][pixels][:, :3], cos_v)
-        total = np.zeros((len(normals), 3))
-        for model, weight in glue.reference_parts(material):
-            part = yield from self._integrate(obj, model, probe, layout, normals, views,
-                                              tangents, lamps, visibility, pixels)
+        at.lamps, at.visibility = self._lamps(obj, at.positions, normals)
+        if (material.name, "roughness") not in self._passes:
+            return (yield from self._shade(obj, material, None, at, probe, layout))
+        knots, weights = glue.roughness_weights(self._images["roughness_pass"][pixels][:, 0])
+        spec = material_parts(material).derived.spec
+        self._notes.append(
+            f"{obj.name}: the NumPy reference follows the roughness texture per pixel "
+            f"(its value rendered by Cycles as an emission pass; integrals at "
+            f"{len(knots)} roughness knots from {knots[0]:.3g} to {knots[-1]:.3g}, at most "
+            f"{glue.REFERENCE_ROUGHNESS_RATIO:g}x apart, interpolated in log roughness)")
+        total = np.zeros((int(pixels.sum()), 3))
+        for k, knot in enumerate(knots):
+            use = weights[:, k] > 0.0
+            if use.any():
+                part = yield from self._shade(obj, material, with_roughness(spec, knot),
+                                              at.subset(use), probe, layout)
+                total[use] += weights[use, k, None] * part
+        return total
+
+    def _shade(self, obj, material, spec, at, probe, layout):
+        """(P, 3) the reference at the pixels ``at`` (a _Pixels) of ``material`` (its
+        read BSDF, or ``spec``: the same at one roughness), its Base Color followed
+        per pixel where a colour pass is there (a generator)."""
+        plan = glue.colour_plan(material, spec) if at.colour is not None else None
+        if plan is not None:
+            values = []
+            for part_spec in plan[0]:
+                values.append((yield from self._integrate(obj, brdf.parse(part_spec), probe,
+                                                          layout, at)))
+            return plan[1](values, at.colour, at.cos_view)
+        fresnel_weight = fresnel.dielectric(at.cos_view, material.glossy.fresnel_ior) \
+            if material.glossy.fresnel_ior > 1.0 else None
+        parts = [(brdf.parse(spec), "one")] if spec else glue.reference_parts(material)
+        total = np.zeros((len(at.normals), 3))
+        for model, weight in parts:
+            part = yield from self._integrate(obj, model, probe, layout, at)
             if weight == "fresnel":
                 part = part * fresnel_weight[:, None]
             elif weight == "one_minus_fresnel":
@@ -312,26 +364,26 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             total += part
         return total
 
-    def _integrate(self, obj, model, probe, layout, normals, views, tangents, lamps,
-                   visibility, index_pass):
-        """(N, 3) the reference of one BRDF at an object's pixels: the probe's integral
-        plus the lamps' light (a generator, yielding progress)."""
+    def _integrate(self, obj, model, probe, layout, at):
+        """(P, 3) the reference of one BRDF at the pixels ``at`` (a _Pixels): the
+        probe's integral plus the lamps' light (a generator, yielding progress)."""
         factor, why = reference.reconstruction_factor(model, probe.shape, layout,
-                                                      normals, views, tangents=tangents)
+                                                      at.normals, at.views,
+                                                      tangents=at.tangents)
         if factor > 1:
             self._notes.append(f"{obj.name}: the NumPy reference ({model.spec}) "
                                f"integrates the probe's bilinear reconstruction "
                                f"sampled {factor}x finer ({why})")
         part = yield from prefixed_steps(f"{obj.name}: ", reference.render_steps(
-            model, probe, layout, normals, views, tangents=tangents,
+            model, probe, layout, at.normals, at.views, tangents=at.tangents,
             reconstruction="bilinear"))
-        if lamps:
-            yield 1.0, f"{obj.name}: the light of {len(lamps)} lamp(s)"
+        if at.lamps:
+            yield 1.0, f"{obj.name}: the light of {len(at.lamps)} lamp(s)"
             start = time.perf_counter()
             part = part + lamp_reference.radiance(
-                model, lamps, self._positions[index_pass], normals, views,
-                tangents=tangents, visibility=visibility,
-                unblocked=glue.lamp_ray_test(bpy.context.scene, lamps))
+                model, at.lamps, at.positions, at.normals, at.views, tangents=at.tangents,
+                visibility=at.visibility,
+                unblocked=glue.lamp_ray_test(bpy.context.scene, at.lamps))
             key = f"reference_lamps_{obj.name}"
             self._timings[key] = self._timings.get(key, 0.0) + time.perf_counter() - start
         return part

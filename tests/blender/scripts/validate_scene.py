@@ -110,7 +110,8 @@ if checks:  # Esc in the middle: the steps the modal loop runs, then what Esc do
         def report(self, kind, message):
             pass
     for name in ("_begin", "_setup", "_use", "_run_step", "_reference_steps", "_lamps",
-                 "_integrate", "_material_reference", "_note_per_pixel_inputs", "_mask",
+                 "_integrate", "_material_reference", "_shade", "_note_per_pixel_inputs",
+                 "_mask",
                  "_write_report", "_store", "_cleanup"):
         setattr(Driver, name, GLOSSY_OT_validate.__dict__[name])
     driver = Driver()

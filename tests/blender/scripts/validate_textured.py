@@ -2,15 +2,16 @@
 
     python validate_textured.py HDRI WORKDIR RESULT.json
 
-Three isolated spheres under a World Only probe (64 px faces): "Metal" (a
+Four isolated spheres under a World Only probe (64 px faces): "Metal" (a
 Principled metal, Roughness 0.3) and "Plastic" (a Principled dielectric,
 Roughness 0.3), each with its Base Color from a Checker Texture of two
 colours far apart (what a single value cannot stand for), and "Bumpy" (the
 metal in one colour, its Normal from a Bump node over a Noise Texture), read
-From Material. Plastic's upper half has a second material, "Red metal" (GGX
+From Material, and "Rough" (the checker metal with its Roughness from an image
+of four bands, 0.15-0.5). Plastic's upper half has a second material, "Red metal" (GGX
 0.3): the reference shades each face with its own. Neither sphere is in
 the other's reflections or shadows (ray visibility, as
-tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp, 96 px, EEVEE 4
+tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp, 128 px, EEVEE 4
 samples. Writes each sphere's figures and the notes.
 """
 
@@ -23,10 +24,26 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from _operators import shader_material, validation_scene  # noqa: E402
 
-scene = validation_scene(hdri, workdir, 96)
+scene = validation_scene(hdri, workdir, 128)
 
 
-def sphere(name, x, metallic, bump=False):
+def roughness_image():
+    """A 64 x 32 Non-Color image: Roughness 0.15-0.5 in four smooth bands along U."""
+    import math
+
+    image = bpy.data.images.new("Roughness bands", 64, 32, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    values = []
+    for _ in range(32):
+        for column in range(64):
+            r = 0.15 + 0.35 * (0.5 + 0.5 * math.sin(2.0 * math.pi * 4.0 * (column + 0.5) / 64))
+            values += [r, r, r, 1.0]
+    image.pixels.foreach_set(values)
+    image.pack()
+    return image
+
+
+def sphere(name, x, metallic, bump=False, rough=False):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
                                          location=(x, 0.0, 0.0))
     bpy.ops.object.shade_smooth()
@@ -59,12 +76,16 @@ def sphere(name, x, metallic, bump=False):
         checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
         checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
         tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+    if rough:  # and the roughness from an image, as a PBR texture set has it
+        texture = tree.nodes.new("ShaderNodeTexImage")
+        texture.image = roughness_image()
+        tree.links.new(texture.outputs["Color"], principled.inputs["Roughness"])
     obj.data.materials.append(material)
     return obj
 
 
-spheres = [sphere("Metal", -2.5, 1.0), sphere("Plastic", 0.0, 0.0),
-           sphere("Bumpy", 2.5, 1.0, bump=True)]
+spheres = [sphere("Metal", -3.75, 1.0), sphere("Plastic", -1.25, 0.0),
+           sphere("Bumpy", 1.25, 1.0, bump=True), sphere("Rough", 3.75, 1.0, rough=True)]
 # Two materials on one mesh: Plastic's upper half a red GGX 0.3 metal of its own.
 upper, _, red = shader_material("Red metal")
 for name, value in (("Base Color", (0.9, 0.2, 0.15, 1.0)), ("Metallic", 1.0),
