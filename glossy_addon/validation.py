@@ -164,18 +164,6 @@ REFERENCE_ROUGHNESS_RATIO = 1.1
 REFERENCE_KNOTS = 24
 
 
-def roughness_socket(material):
-    """(node name, input name) of a roughness texture the lookup of a From Material
-    ``material`` applies per pixel (a Principled or Glossy BSDF alone), or None."""
-    if material.glossy.model != "MATERIAL":
-        return None
-    from .material_source import parts as material_parts
-
-    derived = material_parts(material).derived
-    entry = (derived.spatial if derived is not None else {}).get("roughness")
-    return (entry["node"], entry["input"]) if entry else None
-
-
 def roughness_weights(roughness):
     """(knots (K,), weights (N, K)): geometric roughness knots spanning the pixels'
     roughness values (N,) at most REFERENCE_ROUGHNESS_RATIO apart, and each pixel's
@@ -203,15 +191,16 @@ def roughness_weights(roughness):
     return knots, weights
 
 
-def normal_socket(material):
-    """(node name, input name) of the normal (a normal or bump map) the lookup of a
-    From Material ``material`` applies per pixel, or None."""
+def spatial_socket(material, kind):
+    """(node name, input name) of the input of ``kind`` ("normal": a normal or bump
+    map; "roughness": a roughness image of a BSDF alone) the lookup of a From
+    Material ``material`` applies per pixel, or None."""
     if material.glossy.model != "MATERIAL":
         return None
     from .material_source import parts as material_parts
 
     derived = material_parts(material).derived
-    entry = (derived.spatial if derived is not None else {}).get("normal")
+    entry = (derived.spatial if derived is not None else {}).get(kind)
     return (entry["node"], entry["input"]) if entry else None
 
 

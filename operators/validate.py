@@ -164,10 +164,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                          for m in materials}.values():
             plan = glue.colour_plan(material)
             wanted = [("colour", plan[2])] if plan is not None else []
-            if glue.normal_socket(material) is not None:
-                wanted.append(("normal", glue.normal_socket(material)))
-            if glue.roughness_socket(material) is not None:
-                wanted.append(("roughness", glue.roughness_socket(material)))
+            for kind in ("normal", "roughness"):
+                if glue.spatial_socket(material, kind) is not None:
+                    wanted.append((kind, glue.spatial_socket(material, kind)))
             for kind, socket in wanted:
                 if (material.name, kind) in self._passes:
                     continue
