@@ -390,9 +390,14 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
     def _note_per_pixel_inputs(self, obj, material):
         """A note where the lookup applies inputs per pixel (textures, a normal map)
         that the NumPy reference, one BRDF for all the object's pixels, takes at one
-        value: its columns then include the texture's variation."""
+        value: its columns then include the texture's variation; and the node
+        reader's inputs taken at one value by Glossy and the reference alike (a
+        procedural texture at the socket's unlinked value, an image at its mean)."""
         derived = material_parts(material).derived if material.glossy.model == "MATERIAL" \
             else None
+        for line in getattr(derived, "approximated", None) or []:
+            if "driven by" in line or "taken at its mean" in line:  # Glossy's and the
+                self._notes.append(f"{obj.name}: {line}")  # reference's alike
         spatial = {kind: entry for kind, entry in
                    (getattr(derived, "spatial", None) or {}).items()
                    if (material.name, kind) not in self._passes}

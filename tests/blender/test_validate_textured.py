@@ -25,6 +25,8 @@ def test_the_reference_follows_a_base_color_texture_per_pixel(tmp_path):
     assert any(note.startswith("Bumpy: the NumPy reference takes each pixel's normal from "
                                "the material's normal or bump map") for note in notes)
     assert not any(note.startswith("Bumpy: the lookup applies") for note in notes)
+    assert any(note.startswith("Bumpy: Principled BSDF: Roughness: driven by 'Math'")
+               and "unlinked value 0.3 is used" in note for note in notes), notes
     assert "Plastic: 2 Glossy materials; the NumPy reference shades each face with its own" \
         in notes
     assert any(note.startswith("Rough: the NumPy reference follows the roughness texture "

@@ -70,6 +70,11 @@ def sphere(name, x, metallic, bump=False, rough=False):
         relief.inputs["Distance"].default_value = 0.5
         tree.links.new(noise.outputs["Fac"], relief.inputs["Height"])
         tree.links.new(relief.outputs["Normal"], principled.inputs["Normal"])
+        # A Roughness through a Math node (0.3 + 0: the socket's own value), which
+        # Glossy and the reference take at the unlinked value, and say so.
+        same = tree.nodes.new("ShaderNodeMath")
+        same.inputs[0].default_value, same.inputs[1].default_value = 0.3, 0.0
+        tree.links.new(same.outputs[0], principled.inputs["Roughness"])
     else:
         checker = tree.nodes.new("ShaderNodeTexChecker")
         checker.inputs["Scale"].default_value = 5.0
