@@ -849,50 +849,104 @@ def matrix_for(brdf, parameterization, size, kind="xy"):
 
 
 # --- one texture for shaders ----------------------------------------------------------
-def pack(factorization):
+def pack(factorization, levels=None):
     """The factors as one padded atlas for GPU lookups: (image, meta).
 
     image: (n + 2 + m + 2, K max(n + 2, m + 2), 3) float32, first row at the
     top (n = size of g, m = size_h of h). Term k's g_k tile has its top-left
-    texel at (row 1, column k (n + 2) + 1), h_k's at (row n + 3, column
+    texel at (row 1, column k (n + 2) + 1), h_k's at (row h_row + 1, column
     k (m + 2) + 1); each tile is ringed by one texel repeating its edge
     (wrapped instead for the azimuth axes of ``elevation-azimuth``), so
     bilinear filtering at continuous texel coordinates clamped to
     [-0.5, size - 0.5] reads exactly :meth:`Factorization.evaluate`'s values.
-    Tiles hold the normalized factors; ``meta["scale"]`` is the (K, 3) product
-    scale_g scale_h per term; ``meta["tile_g"]``, ``meta["tile_h"]`` the padded
-    tile sizes.
+    ``levels``: a bake.lamp_spread.Levels (lamps of any size) adds a second g
+    band of n + 2 rows holding its cap levels side by side
+    (bake.lamp_spread.level_layout), each tile ringed alike; h_row is then
+    2 (n + 2), else n + 2. Tiles hold the normalized factors; ``meta["scale"]``
+    is the (K, 3) product scale_g scale_h per term; ``meta["tile_g"]``,
+    ``meta["tile_h"]`` the padded tile sizes, ``meta["h_row"]`` the h band's
+    first row, ``meta["levels"]``, ``meta["first_radius"]`` (rad), ``meta["per_octave"]`` and
+    ``meta["spread_scale"]`` the cap levels (0 levels: none).
     """
+    from .lamp_spread import level_layout
+
     f = factorization
     count = f.terms
     tile_g, tile_h = f.size + 2, f.size_h + 2
-    image = np.zeros((tile_g + tile_h, count * max(tile_g, tile_h), 3), np.float32)
+    level_count = levels.count if levels is not None else 0
+    h_row = tile_g * (2 if level_count else 1)
+    width = count * max(tile_g, tile_h)
+    if level_count:
+        last_side, last_column, _ = level_layout(f.size, count, level_count, count - 1,
+                                                 levels.per_octave)
+        width = max(width, last_column + last_side + 2)
+    image = np.zeros((h_row + tile_h, width, 3), np.float32)
     wrap = f.parameterization == "elevation-azimuth"
     for k in range(count):
         image[:tile_g, k * tile_g:(k + 1) * tile_g] = np.pad(
             f.g[k], ((1, 1), (1, 1), (0, 0)), mode="edge")
-        image[tile_g:, k * tile_h:(k + 1) * tile_h] = np.pad(
+        image[h_row:, k * tile_h:(k + 1) * tile_h] = np.pad(
             f.h[k], ((1, 1), (1, 1), (0, 0)), mode="wrap" if wrap else "edge")
+        for j in range(1, level_count + 1):
+            side, column, row = level_layout(f.size, count, j, k, levels.per_octave)
+            image[row:row + side + 2, column:column + side + 2] = np.pad(
+                levels.maps[j - 1][k], ((1, 1), (1, 1), (0, 0)), mode="edge")
     meta = f.meta()
     meta.update({"layout": "separable-atlas", "tile_g": tile_g, "tile_h": tile_h,
+                 "h_row": h_row, "levels": level_count,
+                 "per_octave": levels.per_octave if level_count else 1,
+                 "first_radius": float(levels.radii[0]) if level_count else 0.0,
+                 "spread_scale": float(levels.scale) if level_count else 0.0,
                  "scale": (f.scale_g * f.scale_h).tolist()})
     return image, meta
 
 
-def atlas_lookup(image, meta, wi, wo, terms=None):
+def atlas_lookup(image, meta, wi, wo, terms=None, spread=None):
     """Reconstructed f (..., 3) from a packed atlas, as a shader reads it:
-    bilinear taps at clamped texel coordinates inside each padded tile."""
+    bilinear taps at clamped texel coordinates inside each padded tile.
+    ``spread``: the lamp's angular radius (rad, broadcast with wi[..., 0]) for
+    an atlas with cap levels (bake.lamp_spread): g is then the mean over a cap
+    of radius spread x meta["spread_scale"], blended from two levels exactly
+    as the material's nodes blend them; None or an atlas without levels: f at
+    (wi, wo)."""
+    from .lamp_spread import level_layout, level_weights
+
     n, m = int(meta["size"]), int(meta.get("size_h", meta["size"]))
     grid = _Grid(meta["parameterization"], n, meta["map"], m)
     tile_g, tile_h = int(meta["tile_g"]), int(meta["tile_h"])
+    h_row = int(meta.get("h_row", tile_g))
+    count = int(meta.get("levels", 0))
+    per_octave = int(meta.get("per_octave", 1))
     (uc, ur), (vc, vr) = grid.coords(np.asarray(wi, np.float64), np.asarray(wo, np.float64))
+    uc, ur = np.clip(uc, -0.5, n - 0.5), np.clip(ur, -0.5, n - 0.5)
     scale = np.asarray(meta["scale"])
+    terms = terms or int(meta["terms"])
+    if spread is not None and count:
+        rho = np.broadcast_to(np.asarray(spread, np.float64) * float(meta["spread_scale"]),
+                              uc.shape)
+        level_a, level_b, weight_a, weight_b = level_weights(
+            rho, float(meta["first_radius"]), count, per_octave)
+
+    def g_at(k, level):
+        """g_k at each pixel's level (an array of whole numbers)."""
+        out = np.zeros(uc.shape + (3,))
+        for j in np.unique(level).astype(int):
+            where = level == j
+            side, column, row = level_layout(n, int(meta["terms"]), j, k, per_octave)
+            col = (uc[where] + 0.5) * side / n - 0.5
+            rw = (ur[where] + 0.5) * side / n - 0.5
+            out[where] = _bilinear(image, np.clip(col, -0.5, side - 0.5) + 1 + column,
+                                   np.clip(rw, -0.5, side - 0.5) + 1 + row)
+        return out
+
     total = 0.0
-    for k in range(terms or int(meta["terms"])):
-        g = _bilinear(image, np.clip(uc, -0.5, n - 0.5) + 1 + k * tile_g,
-                      np.clip(ur, -0.5, n - 0.5) + 1)
+    for k in range(terms):
+        if spread is not None and count:
+            g = g_at(k, level_a) * weight_a[..., None] + g_at(k, level_b) * weight_b[..., None]
+        else:
+            g = _bilinear(image, uc + 1 + k * tile_g, ur + 1)
         h = _bilinear(image, np.clip(vc, -0.5, m - 0.5) + 1 + k * tile_h,
-                      np.clip(vr, -0.5, m - 0.5) + 1 + tile_g)
+                      np.clip(vr, -0.5, m - 0.5) + 1 + h_row)
         total = total + g * h * scale[k]
     above = (np.asarray(wi)[..., 2] > 0) & (np.asarray(wo)[..., 2] > 0)
     return np.where(above[..., None], total, 0.0)
