@@ -235,7 +235,8 @@ def blur_levels(factorization, per_octave=PER_OCTAVE, progress=None) -> Levels:
 
 
 def _cap_area(rho):
-    return 1.0 - np.cos(rho)
+    """1 - cos(rho) as 2 sin^2(rho / 2) (the nodes' form: no cancellation in float32)."""
+    return 2.0 * np.sin(0.5 * np.asarray(rho, np.float64)) ** 2
 
 
 def level_weights(spread, first, count, per_octave=PER_OCTAVE):
@@ -257,8 +258,8 @@ def level_weights(spread, first, count, per_octave=PER_OCTAVE):
     area_b = _cap_area(first * 2.0 ** ((b - 1) / per_octave))
     t = np.where(b > a, (area - area_a) / np.maximum(area_b - area_a, 1e-30), 0.0)
     t = np.clip(t, 0.0, 1.0)
-    safe = np.maximum(area, 1e-30)
-    large_a, large_b = (1.0 - t) * area_a / safe, t * area_b / safe
+    floor_area = _cap_area(np.maximum(rho, first))  # bounded in both branches
+    large_a, large_b = (1.0 - t) * area_a / floor_area, t * area_b / floor_area
     s = np.clip(area / area_1, 0.0, 1.0)
     return (np.where(small, 0.0, a), np.where(small, 1.0, b),
             np.where(small, 1.0 - s, large_a), np.where(small, s, large_b))

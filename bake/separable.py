@@ -893,7 +893,7 @@ def pack(factorization, levels=None):
                 levels.maps[j - 1][k], ((1, 1), (1, 1), (0, 0)), mode="edge")
     meta = f.meta()
     meta.update({"layout": "separable-atlas", "tile_g": tile_g, "tile_h": tile_h,
-                 "h_row": h_row, "levels": level_count,
+                 "h_row": h_row, "atlas_width": width, "levels": level_count,
                  "per_octave": levels.per_octave if level_count else 1,
                  "first_radius": float(levels.radii[0]) if level_count else 0.0,
                  "spread_scale": float(levels.scale) if level_count else 0.0,

@@ -46,10 +46,13 @@ import math
 
 import bpy
 
-from .nodes import _Builder, _group, _io
+from .nodes import _Builder, _group, _group_node, _io
 
-GROUP_VERSION = 1
+GROUP_VERSION = 2
 KINDS = ("POINT", "SPOT", "SUN", "AREA")
+#: The coordinates' shared groups, and the cap levels' (bake.lamp_spread).
+COORDS_VERSION = 1
+SPREAD_VERSION = 1
 
 
 # --- which lamps ----------------------------------------------------------------------
@@ -97,9 +100,37 @@ def scene_lamps(scene):
     return lamps, skipped
 
 
+def area_extents(obj):
+    """(width, height): an area lamp's full extents along its X and Y in world
+    units (Size, or Size X and Size Y, times the object's world scale)."""
+    light = obj.data
+    scale = obj.matrix_world.to_scale()
+    height = light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size
+    return float(light.size) * abs(scale[0]), float(height) * abs(scale[1])
+
+
+def area_layout(obj):
+    """The cells (bake.lamp_spread.area_cells) an area lamp is split into, as
+    attached: [(u, v, share)]; a zero-sized lamp is one cell."""
+    from ..bake.lamp_spread import area_cells
+
+    width, height = area_extents(obj)
+    if width <= 0.0 or height <= 0.0:
+        return [(0.0, 0.0, 1.0)]
+    return area_cells(obj.data.shape, width, height)
+
+
+def _lamp_kind(obj):
+    """A lamp's type, with an area lamp's shape and cell count (its layout is
+    fixed at attach: a new shape or aspect needs a re-attach)."""
+    if obj.data.type != "AREA":
+        return obj.data.type
+    return f"AREA {obj.data.shape} {len(area_layout(obj))}"
+
+
 def lamp_set(lamps):
-    """The JSON signature of a set of lamps (names and types) kept at attach."""
-    return json.dumps(sorted([obj.name, obj.data.type] for obj in lamps))
+    """The JSON signature of a set of lamps (names and kinds) kept at attach."""
+    return json.dumps(sorted([obj.name, _lamp_kind(obj)] for obj in lamps))
 
 
 def lamp_set_changed(material, scene):
@@ -192,13 +223,17 @@ def _point_irradiance(b, inputs):
 
 
 def lamp_group(kind):
-    """Shared group ``Glossy <Kind> Lamp v1``: Light (unit vector from the shading
-    point to the lamp, world) and Irradiance (W/m^2 on a surface facing it, RGB)."""
+    """Shared group ``Glossy <Kind> Lamp v2``: Light (unit vector from the shading
+    point to the lamp, or to an area lamp's cell, world), Irradiance (W/m^2 on a
+    surface facing it, RGB) and Spread (the lamp's or cell's angular radius
+    seen from the point, rad: bake.lamp_term's formulas)."""
     name = f"Glossy {kind.title()} Lamp v{GROUP_VERSION}"
     inputs = [("Position", VECTOR), ("Lamp Location", VECTOR), ("Lamp Direction", VECTOR),
-              ("Color", COLOR), ("Power", FLOAT), ("Radius", FLOAT), ("Cos Half Angle", FLOAT),
-              ("Blend", FLOAT)]
-    tree = _group(name, inputs, [("Light", VECTOR), ("Irradiance", COLOR)])
+              ("Lamp X", VECTOR), ("Lamp Y", VECTOR), ("Color", COLOR), ("Power", FLOAT),
+              ("Radius", FLOAT), ("Sphere", FLOAT), ("Cos Half Angle", FLOAT), ("Blend", FLOAT),
+              ("Angle", FLOAT), ("Width", FLOAT), ("Height", FLOAT), ("Shape Area", FLOAT),
+              ("Cell", VECTOR)]
+    tree = _group(name, inputs, [("Light", VECTOR), ("Irradiance", COLOR), ("Spread", FLOAT)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
@@ -206,17 +241,35 @@ def lamp_group(kind):
     if kind == "SUN":
         light = b.vec("SCALE", b.vec("NORMALIZE", i["Lamp Direction"]), scale=-1.0)
         strength = i["Power"]
-    else:
+        spread = b.math("MULTIPLY", i["Angle"], 0.5)
+    elif kind == "AREA":  # a cell (u, v, share): Lambertian, P share cos(a) / (pi d^2)
+        u, v, share = b.separate(i["Cell"])
+        centre = b.vec("ADD", i["Lamp Location"], b.vec("ADD", b.vec(
+            "SCALE", i["Lamp X"], scale=b.math("MULTIPLY", u, i["Width"])), b.vec(
+            "SCALE", i["Lamp Y"], scale=b.math("MULTIPLY", v, i["Height"]))))
+        offset = b.vec("SUBTRACT", centre, i["Position"])
+        distance2 = b.vec("DOT_PRODUCT", offset, offset)
+        light = b.vec("NORMALIZE", offset)
+        cos_a = b.math("MAXIMUM", b.math("MULTIPLY", b.vec(
+            "DOT_PRODUCT", light, b.vec("NORMALIZE", i["Lamp Direction"])), -1.0), 0.0)
+        strength = b.math("DIVIDE", b.math("MULTIPLY", b.math("MULTIPLY", i["Power"], share),
+                                           cos_a),
+                          b.math("MULTIPLY", distance2, math.pi))
+        area = b.math("MULTIPLY", b.math("MULTIPLY", b.math("MULTIPLY", i["Width"],
+                                                              i["Height"]),
+                                         i["Shape Area"]), share)
+        spread = b.math("ARCTAN2", b.math("SQRT", b.math("DIVIDE", b.math(
+            "MULTIPLY", area, cos_a), math.pi)), b.math("SQRT", distance2))
+    else:  # point and spot: P / (4 pi (d^2 + r^2))
         light, distance2 = _point_irradiance(b, i)
-        if kind == "AREA":  # Lambertian emitter along its -Z: P cos(a) / (pi d^2)
-            cos_a = b.math("MAXIMUM", b.math("MULTIPLY", b.vec(
-                "DOT_PRODUCT", light, b.vec("NORMALIZE", i["Lamp Direction"])), -1.0), 0.0)
-            strength = b.math("DIVIDE", b.math("MULTIPLY", i["Power"], cos_a),
-                              b.math("MULTIPLY", distance2, math.pi))
-        else:  # point and spot: P / (4 pi (d^2 + r^2))
-            radius2 = b.math("MULTIPLY", i["Radius"], i["Radius"])
-            strength = b.math("DIVIDE", i["Power"], b.math(
-                "MULTIPLY", b.math("ADD", distance2, radius2), 4.0 * math.pi))
+        radius2 = b.math("MULTIPLY", i["Radius"], i["Radius"])
+        strength = b.math("DIVIDE", i["Power"], b.math(
+            "MULTIPLY", b.math("ADD", distance2, radius2), 4.0 * math.pi))
+        distance = b.math("SQRT", distance2)
+        disc = b.math("ARCTAN2", i["Radius"], distance)  # Soft Falloff: a disc facing the point
+        sphere = b.math("ARCSINE", b.math("MINIMUM", b.math("DIVIDE", i["Radius"], b.math(
+            "MAXIMUM", distance, 1e-12)), 1.0))
+        spread = b.select(i["Sphere"], sphere, disc)
         if kind == "SPOT":
             cos_a = b.math("MULTIPLY", b.vec("DOT_PRODUCT", light, b.vec(
                 "NORMALIZE", i["Lamp Direction"])), -1.0)
@@ -230,6 +283,98 @@ def lamp_group(kind):
             strength = b.math("MULTIPLY", strength, smooth)
     b.link(light, o["Light"])
     b.link(_colour_scale(b, i["Color"], strength), o["Irradiance"])
+    b.link(spread, o["Spread"])
+    return tree
+
+
+def _cap_area(b, rho):
+    """1 - cos(rho) as 2 sin^2(rho / 2) (no cancellation in single precision)."""
+    half = b.math("SINE", b.math("MULTIPLY", rho, 0.5))
+    return b.math("MULTIPLY", b.math("MULTIPLY", half, half), 2.0)
+
+
+def spread_level_group():
+    """Shared group ``Glossy Spread Level v1``: a cap radius (rad) -> the two cap
+    levels to blend and their weights (bake.lamp_spread.level_weights, the
+    same arithmetic)."""
+    name = f"Glossy Spread Level v{SPREAD_VERSION}"
+    tree = _group(name, [("Spread", FLOAT), ("First Radius", FLOAT), ("Levels", FLOAT),
+                         ("Per Octave", FLOAT)],
+                  [("Level A", FLOAT), ("Level B", FLOAT), ("Weight A", FLOAT),
+                   ("Weight B", FLOAT)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, o = _io(tree)
+    first, count, per_octave = i["First Radius"], i["Levels"], i["Per Octave"]
+
+    def radius(level):  # first 2^((level - 1) / P)
+        return b.math("MULTIPLY", first, b.math("POWER", 2.0, b.math(
+            "DIVIDE", b.math("SUBTRACT", level, 1.0), per_octave)))
+
+    rho = b.math("MINIMUM", b.math("MAXIMUM", i["Spread"], 0.0), radius(count))
+    area = _cap_area(b, rho)
+    small = b.math("LESS_THAN", rho, first)
+    step = b.math("ADD", b.math("FLOOR", b.math("MULTIPLY", per_octave, b.math(
+        "LOGARITHM", b.math("DIVIDE", b.math("MAXIMUM", rho, first), first), 2.0))), 1.0)
+    level_a = b.math("MINIMUM", b.math("MAXIMUM", step, 1.0), b.math(
+        "MAXIMUM", b.math("SUBTRACT", count, 1.0), 1.0))
+    level_b = b.math("MINIMUM", b.math("ADD", level_a, 1.0), count)
+    area_a, area_b = _cap_area(b, radius(level_a)), _cap_area(b, radius(level_b))
+    t = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", b.math(
+        "SUBTRACT", area, area_a), b.math("MAXIMUM", b.math("SUBTRACT", area_b, area_a),
+                                          1e-30)), 0.0), 1.0),
+        b.math("GREATER_THAN", level_b, level_a))
+    # the area at rho >= rho_1 keeps both branches bounded (a select of 0 x huge
+    # + huge would cancel in single precision)
+    floor_area = _cap_area(b, b.math("MAXIMUM", rho, first))
+    large_a = b.math("DIVIDE", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, t), area_a),
+                     floor_area)
+    large_b = b.math("DIVIDE", b.math("MULTIPLY", t, area_b), floor_area)
+    s = b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", area, _cap_area(b, first)),
+                                 0.0), 1.0)
+    b.link(b.select(small, 0.0, level_a), o["Level A"])
+    b.link(b.select(small, 1.0, level_b), o["Level B"])
+    b.link(b.select(small, b.math("SUBTRACT", 1.0, s), large_a), o["Weight A"])
+    b.link(b.select(small, s, large_b), o["Weight B"])
+    return tree
+
+
+def spread_texel_group():
+    """Shared group ``Glossy Spread Texel v1``: the continuous atlas texel (column,
+    row) of a term's g at one cap level (0: the factor), from the factor's own
+    clamped texel coordinates (bake.lamp_spread.level_layout's closed forms)."""
+    name = f"Glossy Spread Texel v{SPREAD_VERSION}"
+    tree = _group(name, [("G Column", FLOAT), ("G Row", FLOAT), ("Level", FLOAT),
+                         ("Size", FLOAT), ("Terms", FLOAT), ("Term", FLOAT),
+                         ("Per Octave", FLOAT)],
+                  [("Column", FLOAT), ("Row", FLOAT)])
+    if tree is None:
+        return bpy.data.node_groups[name]
+    b = _Builder(tree)
+    i, o = _io(tree)
+    size, level, per_octave = i["Size"], i["Level"], i["Per Octave"]
+    is_level = b.math("GREATER_THAN", level, 0.5)
+    below = b.math("MAXIMUM", b.math("SUBTRACT", level, 1.0), 0.0)  # j - 1 (0 for level 0)
+    q = b.math("FLOOR", b.math("DIVIDE", b.math("ADD", below, 0.5), per_octave))
+    r = b.math("SUBTRACT", below, b.math("MULTIPLY", q, per_octave))
+    side = b.math("DIVIDE", size, b.math("POWER", 2.0, q))
+    tile = b.math("ADD", side, 2.0)
+    before = b.math("ADD", b.math("MULTIPLY", per_octave, b.math("ADD", b.math(
+        "MULTIPLY", size, b.math("SUBTRACT", 2.0, b.math("POWER", 2.0, b.math(
+            "SUBTRACT", 1.0, q)))), b.math("MULTIPLY", q, 2.0))), b.math("MULTIPLY", r, tile))
+    column = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", is_level, i["Terms"]), before),
+                    b.math("MULTIPLY", i["Term"], tile))
+    high = b.math("SUBTRACT", side, 0.5)
+
+    def scaled(coordinate):
+        value = b.math("SUBTRACT", b.math("DIVIDE", b.math("MULTIPLY", b.math(
+            "ADD", coordinate, 0.5), side), size), 0.5)
+        return b.math("MINIMUM", b.math("MAXIMUM", value, -0.5), high)
+
+    b.link(b.math("ADD", b.math("ADD", scaled(i["G Column"]), 1.0), column), o["Column"])
+    b.link(b.math("ADD", b.math("ADD", scaled(i["G Row"]), 1.0), b.math(
+        "MULTIPLY", is_level, b.math("ADD", size, 2.0))), o["Row"])
     return tree
 
 
@@ -266,7 +411,7 @@ def coords_group(parameterization):
     coordinates of (light, view) on the g and h maps (bake.separable._Grid.coords),
     Cos Light = max(n.l, 0) and Valid = 1 where light and view are both above the
     surface."""
-    name = f"Glossy Separable {parameterization.title()} v{GROUP_VERSION}"
+    name = f"Glossy Separable {parameterization.title()} v{COORDS_VERSION}"
     tree = _group(name, [("Normal", VECTOR), ("Tangent", VECTOR), ("Incoming", VECTOR),
                          ("Light", VECTOR), ("Size", FLOAT), ("H Size", FLOAT),
                          ("Parabolic", FLOAT)],
@@ -379,6 +524,24 @@ def drive_lamp_inputs(node, obj):
     _driver(node.inputs["Power"], None, expression, power)
     if light.type in ("POINT", "SPOT"):
         _driver(node.inputs["Radius"], None, "v", [("v", "PROP", light, "shadow_soft_size")])
+        if hasattr(light, "use_soft_falloff"):
+            _driver(node.inputs["Sphere"], None, "0.0 if v else 1.0",
+                    [("v", "PROP", light, "use_soft_falloff")])
+    if light.type == "SUN":
+        _driver(node.inputs["Angle"], None, "v", [("v", "PROP", light, "angle")])
+    if light.type == "AREA":
+        for axis, expression in enumerate(("1 - 2*(y*y + z*z)", "2*(x*y + w*z)",
+                                           "2*(x*z - w*y)")):  # the lamp's X in world
+            _driver(node.inputs["Lamp X"], axis, expression, rotation)
+        for axis, expression in enumerate(("2*(x*y - w*z)", "1 - 2*(x*x + z*z)",
+                                           "2*(y*z + w*x)")):  # its Y
+            _driver(node.inputs["Lamp Y"], axis, expression, rotation)
+        second = "size_y" if light.shape in ("RECTANGLE", "ELLIPSE") else "size"
+        for socket, path, scale in (("Width", "size", "SCALE_X"), ("Height", second, "SCALE_Y")):
+            _driver(node.inputs[socket], None, "v * abs(k)",
+                    [("v", "PROP", light, path), ("k", "TRANSFORM", obj, scale)])
+        node.inputs["Shape Area"].default_value = \
+            math.pi / 4.0 if light.shape in ("DISK", "ELLIPSE") else 1.0
     if light.type == "SPOT":
         _driver(node.inputs["Cos Half Angle"], None, "cos(v / 2)",
                 [("v", "PROP", light, "spot_size")])
@@ -402,7 +565,9 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None, tangent=("RADIAL", "Z
     size, terms = float(meta["size"]), int(meta["terms"])
     size_h = float(meta.get("size_h", meta["size"]))
     tile_g, tile_h = int(meta["tile_g"]), int(meta["tile_h"])
-    height, width = tile_g + tile_h, terms * max(tile_g, tile_h)
+    h_row = int(meta.get("h_row", tile_g))
+    levels = int(meta.get("levels", 0))
+    height, width = h_row + tile_h, int(meta.get("atlas_width", terms * max(tile_g, tile_h)))
     scale = meta["scale"]
     geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
     from .sampling_nodes import tangent_socket
@@ -453,36 +618,64 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None, tangent=("RADIAL", "Z
         b.link(c, node.inputs[1])
         return node.outputs["Vector"]
 
-    for obj in lamps:
-        lamp = b._place(b.nodes.new("ShaderNodeGroup"))
-        lamp.node_tree = lamp_group(obj.data.type)
-        lamp.label = f"Glossy lamp {obj.name}"
-        lamp["glossy_lamp"] = obj.name
-        b.link(geometry.outputs["Position"], lamp.inputs["Position"])
-        drive_lamp_inputs(lamp, obj)
-        coords = b._place(b.nodes.new("ShaderNodeGroup"))
-        coords.node_tree = coords_tree
-        for socket, value in (("Normal", geometry.outputs["Normal"]),
-                              ("Tangent", tangent_output),
-                              ("Incoming", geometry.outputs["Incoming"]),
-                              ("Light", lamp.outputs["Light"]), ("Size", size),
-                              ("H Size", size_h),
-                              ("Parabolic", 1.0 if meta["map"] == "parabolic" else 0.0)):
-            b.link(value, coords.inputs[socket])
+    def scaled(colour, factor):
+        return _colour_scale(b, colour, factor)
+
+    def g_value(coords, k, level):
+        """g_k: the factor itself, or blended from two cap levels by the lamp's Spread."""
+        if level is None:
+            return tap(b.math("ADD", coords.outputs["G Column"], 1.0 + k * tile_g),
+                       b.math("ADD", coords.outputs["G Row"], 1.0))
         total = None
-        for k in range(terms):
-            g = tap(b.math("ADD", coords.outputs["G Column"], 1.0 + k * tile_g),
-                    b.math("ADD", coords.outputs["G Row"], 1.0))
-            h = tap(b.math("ADD", coords.outputs["H Column"], 1.0 + k * tile_h),
-                    b.math("ADD", coords.outputs["H Row"], 1.0 + tile_g))
-            total = add(total, multiply(multiply(g, h), tuple(float(s) for s in scale[k])))
-        weight = b.math("MULTIPLY", coords.outputs["Cos Light"], coords.outputs["Valid"])
-        lit = _colour_scale(b, lamp.outputs["Irradiance"], weight)
-        specular = _factor_value(b, obj.data, "specular_factor")
-        glossy = add(glossy, _colour_scale(b, multiply(total, lit), specular))
-        if diffuse_colour is not None:
-            lambert = tuple(float(c) / math.pi for c in diffuse_colour)
-            lit_diffuse = _colour_scale(b, multiply(lit, lambert),
-                                        _factor_value(b, obj.data, "diffuse_factor"))
-            diffuse = add(diffuse, lit_diffuse)
+        for which in ("A", "B"):
+            texel = _group_node(b, spread_texel_group(), {
+                "G Column": coords.outputs["G Column"], "G Row": coords.outputs["G Row"],
+                "Level": level[f"Level {which}"], "Size": size, "Terms": float(terms),
+                "Term": float(k), "Per Octave": float(meta.get("per_octave", 1))})
+            total = add(total, scaled(tap(texel["Column"], texel["Row"]),
+                                      level[f"Weight {which}"]))
+        return total
+
+    for obj in lamps:
+        cells = area_layout(obj) if obj.data.type == "AREA" else [(0.0, 0.0, 1.0)]
+        for u, v, share in cells:
+            lamp = b._place(b.nodes.new("ShaderNodeGroup"))
+            lamp.node_tree = lamp_group(obj.data.type)
+            lamp.label = f"Glossy lamp {obj.name}" + (f" cell {u:+.2f} {v:+.2f}"
+                                                       if len(cells) > 1 else "")
+            lamp["glossy_lamp"] = obj.name
+            lamp.inputs["Cell"].default_value = (u, v, share)
+            b.link(geometry.outputs["Position"], lamp.inputs["Position"])
+            drive_lamp_inputs(lamp, obj)
+            coords = b._place(b.nodes.new("ShaderNodeGroup"))
+            coords.node_tree = coords_tree
+            for socket, value in (("Normal", geometry.outputs["Normal"]),
+                                  ("Tangent", tangent_output),
+                                  ("Incoming", geometry.outputs["Incoming"]),
+                                  ("Light", lamp.outputs["Light"]), ("Size", size),
+                                  ("H Size", size_h),
+                                  ("Parabolic", 1.0 if meta["map"] == "parabolic" else 0.0)):
+                b.link(value, coords.inputs[socket])
+            level = None
+            if levels:
+                level = _group_node(b, spread_level_group(), {
+                    "Spread": b.math("MULTIPLY", lamp.outputs["Spread"],
+                                     float(meta["spread_scale"])),
+                    "First Radius": float(meta["first_radius"]), "Levels": float(levels),
+                    "Per Octave": float(meta.get("per_octave", 1))})
+            total = None
+            for k in range(terms):
+                g = g_value(coords, k, level)
+                h = tap(b.math("ADD", coords.outputs["H Column"], 1.0 + k * tile_h),
+                        b.math("ADD", coords.outputs["H Row"], 1.0 + h_row))
+                total = add(total, multiply(multiply(g, h), tuple(float(s) for s in scale[k])))
+            weight = b.math("MULTIPLY", coords.outputs["Cos Light"], coords.outputs["Valid"])
+            lit = _colour_scale(b, lamp.outputs["Irradiance"], weight)
+            specular = _factor_value(b, obj.data, "specular_factor")
+            glossy = add(glossy, _colour_scale(b, multiply(total, lit), specular))
+            if diffuse_colour is not None:
+                lambert = tuple(float(c) / math.pi for c in diffuse_colour)
+                lit_diffuse = _colour_scale(b, multiply(lit, lambert),
+                                            _factor_value(b, obj.data, "diffuse_factor"))
+                diffuse = add(diffuse, lit_diffuse)
     return glossy, diffuse

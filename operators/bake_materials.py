@@ -11,6 +11,7 @@ from ..bake import (
     brdf,
     exr,
     hybrid,
+    lamp_spread,
     outputs,
     prefilter,
     probe_lights,
@@ -57,8 +58,9 @@ _FACTOR_CACHE_SIZE = 16
 
 
 def _factor_steps(settings):
-    """The material's BRDF factored for lamps (bake.separable), as steps: one
-    (fraction, message) before the work, the Factorization as the value."""
+    """The material's BRDF factored for lamps (bake.separable) with the cap levels
+    of its g factors (bake.lamp_spread: lamps of any size), as steps: one
+    (fraction, message) before each part, (Factorization, Levels) as the value."""
     size_h = settings.lamp_size_h if settings.lamp_method == "sampled" else None
     key = (brdf.parse(settings.brdf_spec()).spec, settings.lamp_parameterization,
            settings.lamp_method, settings.lamp_terms, settings.lamp_size, size_h)
@@ -70,21 +72,25 @@ def _factor_steps(settings):
     factors = separable.factorize(key[0], settings.lamp_parameterization,
                                   settings.lamp_method, settings.lamp_terms, settings.lamp_size,
                                   "xy", size_h=size_h)
+    yield 0.8, "lamp factors: averaging g over lamp-sized caps"
+    levels = lamp_spread.blur_levels(factors)
     while len(_FACTOR_CACHE) >= _FACTOR_CACHE_SIZE:
         _FACTOR_CACHE.pop(next(iter(_FACTOR_CACHE)))
-    _FACTOR_CACHE[key] = factors
-    return factors
+    _FACTOR_CACHE[key] = factors, levels
+    return factors, levels
 
 
-def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, factors,
+def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, lamp_factors,
                 probe_path, obj_name, reason, rows=0, runtime_path=None, runtime=None,
                 knots=()):
     """Write one material's files together (all or none, each whole) and record
     them in its settings; a generator (it yields nothing) so that steps can
-    ``yield from`` it. ``runtime``: the (image, meta) of a Hybrid's second
-    texture (bake.sampling_runtime), written to ``runtime_path``. Returns the
-    step's message."""
+    ``yield from`` it. ``lamp_factors``: (Factorization, Levels) or None.
+    ``runtime``: the (image, meta) of a Hybrid's second texture
+    (bake.sampling_runtime), written to ``runtime_path``. Returns the step's
+    message."""
     settings = material.glossy
+    factors, levels = lamp_factors if lamp_factors is not None else (None, None)
     stamp_meta = {"generator": "glossy-blender", "probe": probe_path, "material": material.name}
     written = []
     with outputs.Staged() as staged:
@@ -109,7 +115,7 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, f
                                                               diffuse_meta))
             written.append(diffuse_path)
         if factors is not None:
-            lamp_image, lamp_meta = separable.pack(factors)
+            lamp_image, lamp_meta = separable.pack(factors, levels)
             lamp_meta.update({**stamp_meta, "precision": "float32"})
             staged.add(lamp_path, lambda target: exr.write(target, lamp_image, lamp_meta))
             written.append(lamp_path)
@@ -346,13 +352,13 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         sampled = method == "runtime" or (method == "hybrid" and not isotropic)
         if not isotropic and not sampled:  # lamps only (checked in _prepare)
             path = diffuse_path = None
-        factors = None
+        lamp_factors = None
         if lamp_path is not None:
-            factors = yield from scaled_steps(background_steps(_factor_steps(settings)), 0.0,
-                                         0.1 if path else 1.0)
+            lamp_factors = yield from scaled_steps(background_steps(_factor_steps(settings)),
+                                                   0.0, 0.1 if path else 1.0)
         if path is None:
-            return (yield from _write_bake(material, None, None, None, None, lamp_path, factors,
-                                           probe_path, obj_name,
+            return (yield from _write_bake(material, None, None, None, None, lamp_path,
+                                           lamp_factors, probe_path, obj_name,
                                            "no environment map (anisotropic BRDF)"))
         layout = meta.get("layout", "cube")
         knots, sizes = [], []
@@ -444,7 +450,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             diffuse = atlas.pack_irradiance(irradiance)
         return (yield from _write_bake(material, path, (image, atlas_meta), diffuse,
                                        diffuse_path if diffuse is not None else None,
-                                       lamp_path, factors, probe_path, obj_name, reason,
+                                       lamp_path, lamp_factors, probe_path, obj_name, reason,
                                        int(rows), runtime_path, runtime, knots))
 
     def execute(self, context):

@@ -163,11 +163,12 @@ def test_area_cells_partition_the_lamp(shape, size, count):
     if shape == "ELLIPSE":  # each slice's share and centroid, by 1D quadrature of its chords
         edges = np.linspace(-0.5, 0.5, count + 1)
         for (cu, _, share), lo, hi in zip(cells, edges[:-1], edges[1:], strict=True):
-            u = np.linspace(lo, hi, 200001)
+            step = (hi - lo) / 200000
+            u = lo + (np.arange(200000) + 0.5) * step  # midpoints
             chord = 2.0 * np.sqrt(np.maximum(0.25 - u * u, 0.0))
-            part = np.trapz(chord, u)
+            part = chord.sum() * step
             assert share == pytest.approx(part / (math.pi / 4.0), abs=1e-6)
-            assert cu == pytest.approx(np.trapz(u * chord, u) / part, abs=1e-6)
+            assert cu == pytest.approx((u * chord).sum() * step / part, abs=1e-6)
 
 
 def test_bad_area_sizes_are_refused():

@@ -5,8 +5,12 @@ seeds) and EEVEE with the true BSDF (native), saved as EXR for the pytest side.
     python lamps_scene.py WORKDIR SPEC LAMPS SIZE TERMS PARAM RESULT.json
 
 LAMPS: comma-separated kinds among point, sun, spot, area, textured (a
-point lamp with a texture in its node tree: Glossy must skip it and say so)
-and warm (a point lamp at Exposure 1 with a 3200 K Temperature colour).
+point lamp with a texture in its node tree: Glossy must skip it and say so),
+warm (a point lamp at Exposure 1 with a 3200 K Temperature colour) and the
+lamps of some size wide_point (radius 0.5), wide_sun (10 degrees) and
+wide_area (a 1.2 x 0.4 rectangle scaled to 1.2 x 0.6). With wide lamps the
+script also writes the NumPy twin of the lamp term (bake.lamp_term) at the
+pixels' hits, with the lamps' sizes and as points.
 Afterwards: a lamp added after attach (the panel's "changed" flag, picked up
 by re-attach) and an absurd term count (refused before any work).
 """
@@ -48,7 +52,13 @@ LAMPS = {"point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0, "shadow_so
          # Exposure 1 doubles the power, Use Temperature tints Color (Cycles 5.0)
          "warm": ("POINT", (-2.0, -3.0, 1.5), None, {"energy": 150.0, "shadow_soft_size": 0.0,
                                                      "exposure": 1.0, "use_temperature": True,
-                                                     "temperature": 3200.0})}
+                                                     "temperature": 3200.0}),
+         "wide_point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0,
+                                                          "shadow_soft_size": 0.5}),
+         "wide_sun": ("SUN", (0.0, 0.0, 5.0), (math.radians(50), 0.0, math.radians(-130)),
+                      {"energy": 2.0, "angle": math.radians(10)}),
+         "wide_area": ("AREA", (1.0, -4.0, -1.0), None, {"energy": 300.0, "shape": "RECTANGLE",
+                                                         "size": 1.2, "size_y": 0.4})}
 for name in kinds:
     kind, location, rotation, values = LAMPS[name]
     light = bpy.data.lights.new(name, kind)
@@ -59,6 +69,8 @@ for name in kinds:
         light.node_tree.nodes.new("ShaderNodeTexNoise")
     obj = bpy.data.objects.new(name, light)
     obj.location = location
+    if name == "wide_area":
+        obj.scale = (1.0, 1.5, 1.0)
     scene.collection.objects.link(obj)
     if rotation is None:  # aim at the sphere's centre
         direction = -obj.location.normalized()
@@ -162,8 +174,33 @@ def numpy_truth(path):
     return str(path)
 
 
+def twin(path, sized):
+    """The lamp term as bake.lamp_term computes it from the baked factors and the
+    scene's lamps (glossy_addon.lamps.reference_lamps), at the pixels' hits."""
+    import numpy as np
+    from glossy.bake import exr, lamp_term
+
+    index, points, normals = validation.pixel_geometry(scene, camera, RESOLUTION, RESOLUTION,
+                                                       [sphere])
+    _, directions = validation.camera_rays(scene, camera, RESOLUTION, RESOLUTION)
+    tangents = np.stack([-points[..., 1], points[..., 0], 0 * points[..., 0]], -1)
+    inside = index == 1
+    image, meta = exr.read(bpy.path.abspath(settings.lamp_path))
+    values = lamp_term.radiance(np.asarray(image, np.float64)[..., :3], meta,
+                                lamps.reference_lamps(scene)[0], points[inside],
+                                normals[inside], -directions[inside], tangents[inside], sized)
+    total = np.zeros(points.shape)
+    total[inside] = values
+    mask = inside.astype(np.float32)[..., None]
+    exr.write(path, np.concatenate([total * mask, mask], -1).astype(np.float32))
+    return str(path)
+
+
 scenes.float_exr_output(scene, RESOLUTION)  # the camera rays need the render size
 report["numpy_truth"] = numpy_truth(workdir / "numpy_truth.exr")
+if True:  # the twin of the lamp term, for every lamp set
+    report["twin"] = twin(workdir / "twin.exr", True)
+    report["twin_points"] = twin(workdir / "twin_points.exr", False)
 report["glossy"] = render("EEVEE", "glossy")
 # Move the point lamp: the drivers follow it without a re-attach.
 if "point" in kinds:
