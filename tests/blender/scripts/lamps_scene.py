@@ -8,9 +8,9 @@ LAMPS: comma-separated kinds among point, sun, spot, area, textured (a
 point lamp with a texture in its node tree: Glossy must skip it and say so),
 warm (a point lamp at Exposure 1 with a 3200 K Temperature colour) and the
 lamps of some size wide_point (radius 0.5), wide_sun (10 degrees) and
-wide_area (a 1.2 x 0.4 rectangle scaled to 1.2 x 0.6). With wide lamps the
-script also writes the NumPy twin of the lamp term (bake.lamp_term) at the
-pixels' hits, with the lamps' sizes and as points.
+wide_area (a 1.2 x 0.4 rectangle scaled to 1.2 x 0.6). The script also
+writes the NumPy twin of the lamp term (bake.lamp_term) at the pixels' hits,
+with the lamps' sizes and with every lamp as a point.
 Afterwards: a lamp added after attach (the panel's "changed" flag, picked up
 by re-attach) and an absurd term count (refused before any work).
 """
@@ -198,9 +198,8 @@ def twin(path, sized):
 
 scenes.float_exr_output(scene, RESOLUTION)  # the camera rays need the render size
 report["numpy_truth"] = numpy_truth(workdir / "numpy_truth.exr")
-if True:  # the twin of the lamp term, for every lamp set
-    report["twin"] = twin(workdir / "twin.exr", True)
-    report["twin_points"] = twin(workdir / "twin_points.exr", False)
+report["twin"] = twin(workdir / "twin.exr", True)
+report["twin_points"] = twin(workdir / "twin_points.exr", False)
 report["glossy"] = render("EEVEE", "glossy")
 # Move the point lamp: the drivers follow it without a re-attach.
 if "point" in kinds:
