@@ -96,6 +96,10 @@ def test_lamps_of_any_size_light_the_material_as_cycles_does(tmp_path):
     # asserted at least 4x worse.
     assert errors["glossy"] <= errors["native"] + 0.02 + noise
     assert errors["points"] >= 4 * errors["glossy"]
+    # Resizing the area lamp is followed by the drivers; a new aspect that
+    # needs another cell layout (3.0 x 0.63: 5 cells, not 2) asks for an attach.
+    assert r["changed_before"] is False and r["changed_after_resizing"] is False
+    assert r["changed_after_reshaping"] is True
 
 
 def test_a_lamps_exposure_and_temperature_light_the_material_as_in_cycles(tmp_path):

@@ -242,6 +242,13 @@ elif spec.startswith("ward:"):  # what a user has natively: Blender's nearest GG
     report["native"] = render("EEVEE", "native", 16)
 sphere.material_slots[0].material = material
 report["changed_before"] = lamps.lamp_set_changed(material, scene)
+if "wide_area" in kinds:  # resized: the drivers follow; a new cell layout needs an attach
+    area_light = bpy.data.objects["wide_area"].data
+    area_light.size_y = 0.42
+    report["changed_after_resizing"] = lamps.lamp_set_changed(material, scene)
+    area_light.size = 3.0
+    report["changed_after_reshaping"] = lamps.lamp_set_changed(material, scene)
+    area_light.size, area_light.size_y = 1.2, 0.4
 late = bpy.data.objects.new("late", bpy.data.lights.new("late", "POINT"))
 scene.collection.objects.link(late)
 report["changed_after_adding"] = lamps.lamp_set_changed(material, scene)
