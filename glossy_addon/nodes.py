@@ -261,8 +261,13 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
         material[USER_OUTPUT] = user_output.name
     spatial = spatial or {}
     b = _Builder(tree)
+    mean_value = None
     if roughness_maps is not None:
-        value = _combined_maps(b, *roughness_maps, map_inputs)
+        if runtime is not None and map_inputs and (
+                map_inputs.get("colour") is not None or map_inputs.get("metallic") is not None):
+            value, mean_value = _combined_maps(b, *roughness_maps, map_inputs, at_mean=True)
+        else:
+            value = _combined_maps(b, *roughness_maps, map_inputs)
     else:
         value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
@@ -271,6 +276,15 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
         geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
         sampled, lights = runtime_parts(b, *runtime, geometry.outputs["Normal"],
                                         geometry.outputs["Incoming"], tangent_socket(b, tangent))
+        if mean_value is not None and value is not None:
+            # The runtime texture holds the BRDF at the baked means: scaled per pixel
+            # by what the maps' split gives at the pixel's colour over at the means
+            # (the same lobe's colour response).
+            ratio = b.vec("DIVIDE", value, b.vec("MAXIMUM", mean_value, b.combine(
+                1e-8, 1e-8, 1e-8)))
+            sampled = b.vec("MULTIPLY", sampled, ratio)
+            if lights is not None:
+                lights = b.vec("MULTIPLY", lights, ratio)
         value = sampled if value is None else hybrid_value(
             b, runtime[1], geometry.outputs["Normal"], geometry.outputs["Incoming"], value,
             sampled)
@@ -406,36 +420,54 @@ def _factor(b, socket, mean):
     return b.vec("DIVIDE", socket, b.combine(*(float(max(c, 1e-6)) for c in mean)))
 
 
-def _combined_maps(b, roughness, maps, inputs=None):
+def _combined_maps(b, roughness, maps, inputs=None, at_mean=False):
     """The value of build_lookup's ``roughness_maps`` (see there): per roughness
     knot the map's lookup, or its maps combined (the colour split of the metal's,
     mixed with the map at Metallic 0 by the metallic socket); then the
-    roughness blend over the knots (one knot: its value)."""
+    roughness blend over the knots (one knot: its value). at_mean: (value, the
+    same lookups combined at the baked means of the colour and metallic,
+    ``inputs["colour_mean"]`` and ``inputs["metallic_mean"]``, with no coat
+    tint texture): what a part baked at those means (the Hybrid's runtime
+    texture) is to be scaled by, per pixel and channel, as value / mean value."""
     knots = sorted({r for r, _, _, _ in maps}, key=lambda r: -1.0 if r is None else r)
-    values = []
-    for knot in knots:
-        lookups = {key: _environment(b, image, meta)
-                   for r, key, image, meta in maps if r == knot}
-        if None in lookups or GLOSSY in lookups:
-            value = lookups.get(None, lookups.get(GLOSSY))
-        else:
-            if HIGH in lookups:
-                value = _colour_split(b, lookups.get(LOW), lookups[HIGH], inputs["colour"],
-                                      inputs["responses"][knot], lookups.get(COAT))
+    lookups = {knot: {key: _environment(b, image, meta)
+                      for r, key, image, meta in maps if r == knot} for knot in knots}
+
+    def combined(colour, metallic, tinted):
+        values = []
+        for knot in knots:
+            found = lookups[knot]
+            if None in found or GLOSSY in found:
+                value = found.get(None, found.get(GLOSSY))
             else:
-                value = lookups[METAL]
-            if DIELECTRIC in lookups:
-                metallic = b.math("MINIMUM", b.math("MAXIMUM", inputs["metallic"], 0.0), 1.0)
-                value = b.mix(metallic, lookups[DIELECTRIC], value)
-        if inputs and inputs.get("coat_tint") and COAT in lookups:
-            # C + T(tint) / T(mean) (V - C): a coat tint texture scales what lies below.
-            coat = lookups[COAT]
-            value = b.vec("ADD", coat, b.vec("MULTIPLY", coat_tint_factor(
-                b, *inputs["coat_tint"]), b.vec("SUBTRACT", value, coat)))
-        values.append(value)
-    if len(knots) == 1:
-        return values[0]
-    return _roughness_blend(b, roughness, knots, values)
+                if HIGH in found:
+                    value = _colour_split(b, found.get(LOW), found[HIGH], colour,
+                                          inputs["responses"][knot], found.get(COAT))
+                else:
+                    value = found[METAL]
+                if DIELECTRIC in found:
+                    value = b.mix(b.math("MINIMUM", b.math("MAXIMUM", metallic, 0.0), 1.0),
+                                  found[DIELECTRIC], value)
+            if tinted and COAT in found:
+                # C + T(tint) / T(mean) (V - C): a coat tint texture scales what lies below.
+                coat = found[COAT]
+                value = b.vec("ADD", coat, b.vec("MULTIPLY", coat_tint_factor(
+                    b, *inputs["coat_tint"]), b.vec("SUBTRACT", value, coat)))
+            values.append(value)
+        if len(knots) == 1:
+            return values[0]
+        return _roughness_blend(b, roughness, knots, values)
+
+    inputs = inputs or {}
+    value = combined(inputs.get("colour"), inputs.get("metallic"),
+                     bool(inputs.get("coat_tint")))
+    if not at_mean:
+        return value
+    colour_mean = inputs.get("colour_mean")
+    mean_value = combined(b.combine(*(float(c) for c in colour_mean))
+                          if colour_mean is not None else None,
+                          float(inputs.get("metallic_mean", 0.0)), False)
+    return value, mean_value
 
 
 def coat_tint_factor(b, tint, mean, coat, ior):

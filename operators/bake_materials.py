@@ -287,7 +287,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             if settings.model == "MATERIAL" and isotropic:
                 found = material_parts(material)
                 knots = found.roughness_set
-                variants = map_variants(found, colour=method in ("3d", "2d"))
+                variants = map_variants(found, colour=method in ("3d", "2d", "hybrid"))
                 if variants and method in ("3d", "2d", "hybrid"):
                     order = sorted({r for r, _, _ in variants if r is not None})
                     for roughness, colour, _ in variants:
@@ -394,7 +394,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             rows, reason = image.shape[0] - 2, f"{face} px split-sum faces: set by Map Size"
         else:
             variants = {(r, c): variant_spec for r, c, variant_spec in map_variants(
-                material_parts(material), colour=method in ("3d", "2d"))} \
+                material_parts(material), colour=method in ("3d", "2d", "hybrid"))} \
                 if knot_paths else {}
             jobs = [(r, c, knot_path, variants[(r, c)]) for r, c, knot_path in knot_paths] \
                 or [(None, None, path, spec)]
@@ -534,6 +534,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             inputs["colour"] = input_socket(material, plan["node"], plan["input"]) \
                 if plan else None
             inputs["responses"] = colour_responses(found)
+            inputs["colour_mean"] = plan["mean"] if plan else None
             if inputs["colour"] is None or \
                     set(inputs["responses"]) != {r for r, _, _ in knots}:
                 return None, None
@@ -541,6 +542,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
             plan = found.derived.spatial.get("metallic")
             inputs["metallic"] = input_socket(material, plan["node"], plan["input"]) \
                 if plan else None
+            inputs["metallic_mean"] = float(plan["mean"]) if plan else 0.0
             if inputs["metallic"] is None:
                 return None, None
         if COAT in keys and spatial.get("coat_tint"):

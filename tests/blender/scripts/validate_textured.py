@@ -116,4 +116,5 @@ folder = workdir / "glossy" / "validation"
 report = json.loads((folder / "report.json").read_text())
 result_path.write_text(json.dumps({
     "steps": steps, "notes": report["notes"], "folder": str(folder),
-    "figures": {entry["object"]: entry["figures"] for entry in report["objects"]}}))
+    "figures": {entry["object"]: entry["figures"] for entry in report["objects"]},
+    "methods": {obj.name: obj.data.materials[0].glossy.method_used() for obj in spheres}}))

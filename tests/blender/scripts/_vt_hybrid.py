@@ -1,0 +1,122 @@
+"""glossy.validate on materials with a Base Color texture, as a user's script drives it.
+
+    python validate_textured.py HDRI WORKDIR RESULT.json
+
+Four isolated spheres under a World Only probe (64 px faces): "Metal" (a
+Principled metal, Roughness 0.3) and "Plastic" (a Principled dielectric,
+Roughness 0.3), each with its Base Color from a Checker Texture of two
+colours far apart (what a single value cannot stand for), and "Bumpy" (the
+metal in one colour, its Normal from a Bump node over a Noise Texture), read
+From Material, and "Rough" (the checker metal with its Roughness from an image
+of four bands, 0.15-0.5). Plastic's upper half has a second material, "Red metal" (GGX
+0.3): the reference shades each face with its own. Neither sphere is in
+the other's reflections or shadows (ray visibility, as
+tests/blender/scripts/validate_scene.py). Cycles 2 x 256 spp, 128 px, EEVEE 4
+samples. Writes each sphere's figures and the notes.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+from _operators import shader_material, validation_scene  # noqa: E402
+
+scene = validation_scene(hdri, workdir, 128)
+
+
+def roughness_image():
+    """A 64 x 32 Non-Color image: Roughness 0.15-0.5 in four smooth bands along U."""
+    import math
+
+    image = bpy.data.images.new("Roughness bands", 64, 32, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    values = []
+    for _ in range(32):
+        for column in range(64):
+            r = 0.15 + 0.35 * (0.5 + 0.5 * math.sin(2.0 * math.pi * 4.0 * (column + 0.5) / 64))
+            values += [r, r, r, 1.0]
+    image.pixels.foreach_set(values)
+    image.pack()
+    return image
+
+
+def sphere(name, x, metallic, bump=False, rough=False):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
+                                         location=(x, 0.0, 0.0))
+    bpy.ops.object.shade_smooth()
+    obj = bpy.context.object
+    obj.name = name
+    for ray in ("glossy", "diffuse", "transmission", "shadow"):
+        setattr(obj, f"visible_{ray}", False)
+    obj.glossy.probe_source = "WORLD"
+    obj.glossy.probe_size_mode = "FIXED"
+    obj.glossy.probe_resolution = 64
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    principled = tree.nodes["Principled BSDF"]
+    principled.inputs["Metallic"].default_value = metallic
+    principled.inputs["Roughness"].default_value = 0.3
+    if bump:  # a plain colour, the normal from a Bump node over a Noise Texture
+        principled.inputs["Base Color"].default_value = (0.9, 0.75, 0.6, 1.0)
+        noise = tree.nodes.new("ShaderNodeTexNoise")
+        noise.inputs["Scale"].default_value = 2.0
+        noise.inputs["Detail"].default_value = 0.0
+        relief = tree.nodes.new("ShaderNodeBump")
+        relief.inputs["Strength"].default_value = 1.0
+        relief.inputs["Distance"].default_value = 0.5
+        tree.links.new(noise.outputs["Fac"], relief.inputs["Height"])
+        tree.links.new(relief.outputs["Normal"], principled.inputs["Normal"])
+        # A Roughness through a Math node (0.3 + 0: the socket's own value), which
+        # Glossy and the reference take at the unlinked value, and say so.
+        same = tree.nodes.new("ShaderNodeMath")
+        same.inputs[0].default_value, same.inputs[1].default_value = 0.3, 0.0
+        tree.links.new(same.outputs[0], principled.inputs["Roughness"])
+    else:
+        checker = tree.nodes.new("ShaderNodeTexChecker")
+        checker.inputs["Scale"].default_value = 5.0
+        checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
+        checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+        tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+    if rough:  # and the roughness from an image, as a PBR texture set has it
+        texture = tree.nodes.new("ShaderNodeTexImage")
+        texture.image = roughness_image()
+        tree.links.new(texture.outputs["Color"], principled.inputs["Roughness"])
+    import os
+    if name in os.environ.get("FORCE_HYBRID", "").split(","):
+        material.glossy.method = "hybrid"
+    obj.data.materials.append(material)
+    return obj
+
+
+spheres = [sphere("Metal", -3.75, 1.0), sphere("Plastic", -1.25, 0.0),
+           sphere("Bumpy", 1.25, 1.0, bump=True), sphere("Rough", 3.75, 1.0, rough=True)]
+# Two materials on one mesh: Plastic's upper half a red GGX 0.3 metal of its own.
+upper, _, red = shader_material("Red metal")
+for name, value in (("Base Color", (0.9, 0.2, 0.15, 1.0)), ("Metallic", 1.0),
+                    ("Roughness", 0.3)):
+    red.inputs[name].default_value = value
+plastic = spheres[1]
+plastic.data.materials.append(upper)
+for polygon in plastic.data.polygons:
+    polygon.material_index = 1 if polygon.center.z > 0.0 else 0
+steps = {}
+for obj in spheres:
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    for name, operator in (("capture", bpy.ops.glossy.capture_probes),
+                           ("bake", bpy.ops.glossy.bake_materials),
+                           ("attach", bpy.ops.glossy.attach_materials)):
+        steps[f"{obj.name} {name}"] = sorted(operator())
+for obj in spheres:
+    obj.select_set(True)
+steps["validate"] = sorted(bpy.ops.glossy.validate())
+folder = workdir / "glossy" / "validation"
+report = json.loads((folder / "report.json").read_text())
+result_path.write_text(json.dumps({
+    "steps": steps, "notes": report["notes"], "folder": str(folder),
+    "figures": {entry["object"]: entry["figures"] for entry in report["objects"]}}))
