@@ -52,7 +52,8 @@ import numpy as np
 from .brdf.base import hammersley
 from .reference import _frames, pixel_arrays
 
-__all__ = ["Lamp", "radiance", "shadow_rays", "SAMPLES", "SHADOW_RAYS", "KINDS", "AREA_SHAPES"]
+__all__ = ["Lamp", "radiance", "shadow_rays", "aimed_axes", "SAMPLES", "SHADOW_RAYS", "KINDS",
+           "AREA_SHAPES"]
 
 #: Samples per pixel and lamp from each technique (emitter, BRDF).
 SAMPLES = 512
@@ -109,6 +110,17 @@ class Lamp:
         if self.kind == "AREA":
             return False
         return self.radius <= 0.0
+
+
+def aimed_axes(position, target=(0.0, 0.0, 0.0)):
+    """Lamp axes (rows X, Y, Z, world) of a lamp at ``position`` whose -Z points
+    at ``target``, X horizontal (perpendicular to world Z; the aim must not be
+    vertical)."""
+    z = np.asarray(position, np.float64) - np.asarray(target, np.float64)
+    z /= np.linalg.norm(z)
+    x = np.cross([0.0, 0.0, 1.0], z)
+    x /= np.linalg.norm(x)
+    return (tuple(x), tuple(np.cross(z, x)), tuple(z))
 
 
 def _smoothstep(x):

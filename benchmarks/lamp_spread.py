@@ -29,37 +29,29 @@ BRDFS = ("principled:base_color=0.9/0.7/0.5,metallic=1,roughness=0.3", "ggx:roug
          "ggx:roughness=0.5", "principled:base_color=0.2/0.4/0.8,roughness=0.2")
 
 
-def _aimed(position):
-    """Lamp axes (rows X, Y, Z) with -Z at the origin."""
-    z = np.asarray(position, np.float64) / np.linalg.norm(position)
-    x = np.cross([0.0, 0.0, 1.0], z)
-    x /= np.linalg.norm(x)
-    return (tuple(x), tuple(np.cross(z, x)), tuple(z))
-
-
 def lamps():
     """(name, bake.lamp_reference.Lamp) of the cases."""
     point, low, high = (2.0, -3.0, 2.5), (2.4, -3.0, -0.4), (3.0, -3.0, 4.0)
-    Lamp = lamp_reference.Lamp
+    Lamp, aim = lamp_reference.Lamp, lamp_reference.aimed_axes
     return [
-        ("point r 0.1", Lamp("POINT", (300.0,) * 3, point, _aimed(point), radius=0.1)),
-        ("point r 0.3", Lamp("POINT", (300.0,) * 3, point, _aimed(point), radius=0.3)),
-        ("point r 0.8", Lamp("POINT", (300.0,) * 3, point, _aimed(point), radius=0.8)),
-        ("sphere r 0.8", Lamp("POINT", (300.0,) * 3, point, _aimed(point), radius=0.8,
+        ("point r 0.1", Lamp("POINT", (300.0,) * 3, point, aim(point), radius=0.1)),
+        ("point r 0.3", Lamp("POINT", (300.0,) * 3, point, aim(point), radius=0.3)),
+        ("point r 0.8", Lamp("POINT", (300.0,) * 3, point, aim(point), radius=0.8)),
+        ("sphere r 0.8", Lamp("POINT", (300.0,) * 3, point, aim(point), radius=0.8,
                               sphere=True)),
-        ("spot r 0.5", Lamp("SPOT", (500.0,) * 3, point, _aimed(point), radius=0.5,
+        ("spot r 0.5", Lamp("SPOT", (500.0,) * 3, point, aim(point), radius=0.5,
                             spot_size=math.radians(60), spot_blend=0.3)),
-        ("sun 5 deg", Lamp("SUN", (1.5,) * 3, high, _aimed(high), angle=math.radians(5))),
-        ("sun 15 deg", Lamp("SUN", (1.5,) * 3, high, _aimed(high), angle=math.radians(15))),
-        ("area 1 x 1", Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="SQUARE",
+        ("sun 5 deg", Lamp("SUN", (1.5,) * 3, high, aim(high), angle=math.radians(5))),
+        ("sun 15 deg", Lamp("SUN", (1.5,) * 3, high, aim(high), angle=math.radians(15))),
+        ("area 1 x 1", Lamp("AREA", (250.0,) * 3, low, aim(low), shape="SQUARE",
                             size=(1.0, 1.0))),
-        ("area 1.5 x 0.5", Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="RECTANGLE",
+        ("area 1.5 x 0.5", Lamp("AREA", (250.0,) * 3, low, aim(low), shape="RECTANGLE",
                                 size=(1.5, 0.5))),
-        ("area 0.3 x 2", Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="RECTANGLE",
+        ("area 0.3 x 2", Lamp("AREA", (250.0,) * 3, low, aim(low), shape="RECTANGLE",
                               size=(0.3, 2.0))),
-        ("disk 1.2", Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="DISK",
+        ("disk 1.2", Lamp("AREA", (250.0,) * 3, low, aim(low), shape="DISK",
                           size=(1.2, 1.2))),
-        ("ellipse 2 x 0.6", Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="ELLIPSE",
+        ("ellipse 2 x 0.6", Lamp("AREA", (250.0,) * 3, low, aim(low), shape="ELLIPSE",
                                  size=(2.0, 0.6))),
     ]
 

@@ -176,13 +176,6 @@ def test_bad_area_sizes_are_refused():
         lamp_spread.area_cells("SQUARE", 0.0, 1.0)
 
 
-def _aimed(position):
-    z = np.asarray(position, np.float64) / np.linalg.norm(position)
-    x = np.cross([0.0, 0.0, 1.0], z)
-    x /= np.linalg.norm(x)
-    return (tuple(x), tuple(np.cross(z, x)), tuple(z))
-
-
 def test_sized_lamps_follow_the_integral_over_the_emitter():
     # A GGX 0.3 sphere (40^2 px) under three large lamps, against the MIS
     # integral over each emitter (bake.lamp_reference, itself within 2.5% of
@@ -203,12 +196,12 @@ def test_sized_lamps_follow_the_integral_over_the_emitter():
     views /= np.linalg.norm(views, axis=1, keepdims=True)
     tangents = np.stack([-normals[:, 1], normals[:, 0], np.zeros(len(normals))], -1)
     point, low, high = (2.0, -3.0, 2.5), (2.4, -3.0, -0.4), (3.0, -3.0, 4.0)
-    Lamp = lamp_reference.Lamp
+    Lamp, aim = lamp_reference.Lamp, lamp_reference.aimed_axes
     model = brdf.parse("ggx:roughness=0.3")
     mask = np.ones((len(normals), 1), bool)
-    for lamp in (Lamp("POINT", (300.0,) * 3, point, _aimed(point), radius=0.8),
-                 Lamp("SUN", (1.5,) * 3, high, _aimed(high), angle=math.radians(15)),
-                 Lamp("AREA", (250.0,) * 3, low, _aimed(low), shape="RECTANGLE",
+    for lamp in (Lamp("POINT", (300.0,) * 3, point, aim(point), radius=0.8),
+                 Lamp("SUN", (1.5,) * 3, high, aim(high), angle=math.radians(15)),
+                 Lamp("AREA", (250.0,) * 3, low, aim(low), shape="RECTANGLE",
                       size=(1.5, 0.5))):
         truth = lamp_reference.radiance(model, [lamp], normals, normals, views,
                                         tangents=tangents)[:, None]
