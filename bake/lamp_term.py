@@ -8,9 +8,9 @@ lamp's angular radius alpha as its spread:
 
 - point and spot, colour C (W, the Color x Power x 2^Exposure the driver
   computes), radius r at distance d: E = C / (4 pi (d^2 + r^2)), alpha =
-  atan(r / d) (Cycles' soft-falloff disc facing the point) or asin(min(r /
-  d, 1)) (a sphere, Soft Falloff off); a spot times Cycles' smoothstep of its
-  cone;
+  atan(r / d) (Cycles' soft-falloff disc facing the point), or E = C / (4 pi
+  d^2), alpha = asin(min(r / d, 1)) (a sphere, Soft Falloff off); a spot
+  times Cycles' smoothstep of its cone;
 - sun, strength C (W/m^2): E = C, alpha = its angle / 2;
 - area, colour C (W), a cell of area A_c and share s of the lamp at
   distance d, cos a = l . Z (the lamp shines along -Z): E = C s cos a /
@@ -37,8 +37,8 @@ __all__ = ["lamp_directions", "radiance"]
 def lamp_directions(lamp, positions, sized=True):
     """[(l (N, 3) unit vectors to the lamp or cell, E (N, 3) W/m^2, alpha (N,) rad)]
     for one lamp at world points ``positions`` (N, 3): one entry, or one per
-    area cell. sized=False: an area lamp is one point at its centre (the lamp
-    term before lamps had a size)."""
+    area cell. sized=False: the lamp term before stop 54 (an area lamp one
+    point at its centre, a sphere lamp with the disc's irradiance)."""
     positions = np.asarray(positions, np.float64).reshape(-1, 3)
     colour = np.asarray(lamp.colour, np.float64)
     axes = np.asarray(lamp.axes, np.float64)
@@ -51,7 +51,9 @@ def lamp_directions(lamp, positions, sized=True):
         distance2 = np.sum(offset * offset, axis=1)
         distance = np.sqrt(np.maximum(distance2, 1e-30))
         l = offset / distance[:, None]
-        irradiance = colour[None, :] / (4.0 * math.pi * (distance2 + lamp.radius ** 2))[:, None]
+        # a sphere: P / (4 pi d^2) (sized=False: the disc's, as before stop 54)
+        disc = 0.0 if lamp.sphere and sized else lamp.radius ** 2
+        irradiance = colour[None, :] / (4.0 * math.pi * (distance2 + disc))[:, None]
         if lamp.kind == "SPOT":
             irradiance = irradiance * _spot_factor(lamp, positions)[:, None]
         ratio = lamp.radius / distance

@@ -17,8 +17,10 @@ samples; tests/blender/test_lamps.py checks the four kinds together against
 Cycles renders of the true BSDF):
 
 - point, power P, radius r at distance d: E = P / (4 pi (d^2 + r^2))
-  (Cycles treats the sphere as a disc facing the point); alpha = atan(r / d),
-  or asin(r / d) for a sphere (Soft Falloff off);
+  (Cycles treats the sphere as a disc facing the point) and alpha = atan(r /
+  d); with Soft Falloff off a sphere of radiance P / (4 pi^2 r^2): E = P / (4
+  pi d^2) and alpha = asin(r / d) (before stop 54 the disc's E: 4% dim at r /
+  d = 0.2);
 - spot: the point's E times smoothstep(0, 1, (cos a - cos(size / 2)) /
   ((1 - cos(size / 2)) blend)), a the angle from the lamp's -Z (no extra
   cosine); the object's scale, which Cycles uses to squash the cone, is ignored;
@@ -32,7 +34,8 @@ Cycles renders of the true BSDF):
 
 Before stop 54 every lamp was a point (and an area lamp one point at its
 centre): a GGX 0.3 sphere under a point lamp of radius 0.5, a 10-degree sun
-and a 1.2 x 0.6 area lamp was 36% from Cycles, now 4.7% (native EEVEE 2.3%).
+and a 1.2 x 0.6 area lamp was 36% from Cycles, now 4.7% (native EEVEE 2.3%;
+tests/blender/test_lamps.py, with a sphere lamp added there).
 
 The colour is Color times the Temperature's colour where Use Temperature is
 on, the power Power x 2^Exposure (and, for a point or spot lamp without
@@ -274,9 +277,10 @@ def lamp_group(kind):
                                          i["Shape Area"]), share)
         spread = b.math("ARCTAN2", b.math("SQRT", b.math("DIVIDE", b.math(
             "MULTIPLY", area, cos_a), math.pi)), b.math("SQRT", distance2))
-    else:  # point and spot: P / (4 pi (d^2 + r^2))
+    else:  # point and spot: P / (4 pi (d^2 + r^2)), a sphere's P / (4 pi d^2)
         light, distance2 = _point_irradiance(b, i)
-        radius2 = b.math("MULTIPLY", i["Radius"], i["Radius"])
+        radius2 = b.math("MULTIPLY", b.math("MULTIPLY", i["Radius"], i["Radius"]),
+                         b.math("SUBTRACT", 1.0, i["Sphere"]))
         strength = b.math("DIVIDE", i["Power"], b.math(
             "MULTIPLY", b.math("ADD", distance2, radius2), 4.0 * math.pi))
         distance = b.math("SQRT", distance2)

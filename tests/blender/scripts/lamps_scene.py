@@ -7,7 +7,8 @@ seeds) and EEVEE with the true BSDF (native), saved as EXR for the pytest side.
 LAMPS: comma-separated kinds among point, sun, spot, area, textured (a
 point lamp with a texture in its node tree: Glossy must skip it and say so),
 warm (a point lamp at Exposure 1 with a 3200 K Temperature colour) and the
-lamps of some size wide_point (radius 0.5), wide_sun (10 degrees) and
+lamps of some size wide_point (radius 0.5), wide_sphere (radius 0.4, Soft
+Falloff off: a sphere), wide_sun (10 degrees) and
 wide_area (a 1.2 x 0.4 rectangle scaled to 1.2 x 0.6). The script also
 writes the NumPy twin of the lamp term (bake.lamp_term) at the pixels' hits,
 with the lamps' sizes and with every lamp as a point.
@@ -55,6 +56,9 @@ LAMPS = {"point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0, "shadow_so
                                                      "temperature": 3200.0}),
          "wide_point": ("POINT", (2.0, -3.0, 2.5), None, {"energy": 400.0,
                                                           "shadow_soft_size": 0.5}),
+         "wide_sphere": ("POINT", (-2.0, -3.0, 1.0), None, {"energy": 300.0,
+                                                            "shadow_soft_size": 0.4,
+                                                            "use_soft_falloff": False}),
          "wide_sun": ("SUN", (0.0, 0.0, 5.0), (math.radians(50), 0.0, math.radians(-130)),
                       {"energy": 2.0, "angle": math.radians(10)}),
          "wide_area": ("AREA", (1.0, -4.0, -1.0), None, {"energy": 300.0, "shape": "RECTANGLE",
