@@ -88,6 +88,9 @@ class GLOSSY_PT_probe(_Sidebar, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("glossy.capture_probes", icon="RENDER_STILL")
         row.operator("glossy.clear", icon="TRASH")
+        row = layout.row(align=True)  # the selection's materials, each with its own probe
+        row.operator("glossy.bake_materials", icon="RENDER_RESULT")
+        row.operator("glossy.attach_materials", icon="NODETREE")
         if settings.probe_path:
             layout.label(text=bpy.path.basename(settings.probe_path), icon="FILE_IMAGE")
             problem = ownership.probe_problem(context.object)

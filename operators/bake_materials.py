@@ -1,4 +1,6 @@
-"""glossy.bake_materials and glossy.attach_materials: the active object's Glossy materials."""
+"""glossy.bake_materials and glossy.attach_materials: the Glossy materials of the
+selected mesh objects (the active object when none is selected), each against
+its own object's probe."""
 
 import json
 import time
@@ -205,13 +207,21 @@ def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=(
     return (image, meta), reason
 
 
-def _object_with_probe(context):
-    obj = context.object
-    if obj is None or obj.type != "MESH":
-        return None, "Select a mesh object"
-    if not obj.material_slots or not any(slot.material for slot in obj.material_slots):
-        return None, "The object has no material"
-    return obj, None
+def _targets(context):
+    """(mesh objects to work on, sorted by name, or [], why none): the selected mesh
+    objects that have a material, else the active object when it is a mesh with
+    one (a script that sets only the active object)."""
+    selected = [obj for obj in context.selected_objects if obj.type == "MESH"]
+    if not selected and context.object is not None and context.object.type == "MESH":
+        selected = [context.object]
+    if not selected:
+        return [], "Select a mesh object"
+    objects = [obj for obj in selected
+               if any(slot.material for slot in obj.material_slots)]
+    if not objects:
+        return [], ("The object has no material" if len(selected) == 1
+                    else "The selected objects have no material")
+    return sorted(objects, key=lambda obj: obj.name), None
 
 
 def _materials(obj):
@@ -224,44 +234,92 @@ def _materials(obj):
 
 
 class _MaterialsOperator:
-    """poll() shared by the operators that work on the active object's materials."""
+    """poll() shared by the operators that work on the selected objects' materials."""
 
     @classmethod
     def poll(cls, context):
-        obj, message = _object_with_probe(context)
-        if obj is None:
+        objects, message = _targets(context)
+        if not objects:
             cls.poll_message_set(message)
             return False
         return True
 
 
 class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operator):
-    """Prefilter the object's probe for each of its materials' BRDFs (skips up-to-date bakes)"""
+    """Prefilter each selected object's probe for its materials' BRDFs (skips up-to-date bakes)"""
 
     bl_idname = "glossy.bake_materials"
     bl_label = "Bake Materials"
     bl_options = {"REGISTER", "UNDO"}
 
     def _prepare(self, context):
-        """(object, probe, probe meta, probe path, materials to bake) or raise BakeError.
+        """The bake's jobs, [(object name, material name, map path, diffuse path, lamp
+        path, runtime path, knot paths)], or raise BakeError.
 
         Every check that can refuse a bake runs here, before any file is written:
-        the object's own probe, the settings, the atlas against the GPU's texture
+        each object's own probe, the settings, the atlas against the GPU's texture
         limit, and the output files (claimed: never another owner's or a user's).
-        Materials shared with objects that have other probes are noted in
-        ``self._warnings``."""
-        obj, _ = _object_with_probe(context)
-        probe_path = obj.glossy.probe_path
-        if not probe_path:
-            raise BakeError(f"{obj.name} has no probe yet: capture one first")
-        problem = ownership.probe_problem(obj)
-        if problem:
-            raise BakeError(problem)
-        probe, meta = exr.read(bpy.path.abspath(probe_path))
+        Selected objects without a probe are skipped and named in
+        ``self._warnings`` (refused when none has one), as are materials shared
+        with objects that have other probes. The probes' pixels are read when
+        their object's first material bakes (:meth:`_probe_of`)."""
+        objects, message = _targets(context)
+        if not objects:
+            raise BakeError(message)
         folder = output_folder()
         todo, taken = [], set()
         self._warnings = []
+        self._probes = {}  # object name: (probe path, meta, world, world note)
+        self._loaded = (None, None)  # (object name, probe pixels) of the last one read
         lamp_objects = scene_lamps(context.scene)[0]
+        without = [obj.name for obj in objects if not obj.glossy.probe_path]
+        if len(without) == len(objects):
+            raise BakeError(f"{without[0]} has no probe yet: capture one first" if
+                            len(objects) == 1 else
+                            f"None of the selected objects has a probe yet "
+                            f"({', '.join(without)}): capture probes first")
+        if without:
+            self._warnings.append(f"Skipped {', '.join(without)}: no probe yet (capture "
+                                  f"one first)")
+        for obj in objects:
+            if obj.name not in without:
+                problem = ownership.probe_problem(obj)
+                if problem:
+                    raise BakeError(problem)
+        for obj in objects:
+            if obj.name in without:
+                continue
+            probe_path = obj.glossy.probe_path
+            try:
+                meta = exr.read_meta(bpy.path.abspath(probe_path))
+            except (OSError, ValueError) as error:
+                raise BakeError(f"{obj.name}: its probe {probe_path} cannot be read "
+                                f"({error}): capture it again") from error
+            todo.extend(self._object_jobs(obj, probe_path, meta, folder, taken,
+                                          lamp_objects))
+            # The world's pixels (read and hashed: about a second for an 8k HDRI) only
+            # when some material shades probe lights (Runtime Sampling, the Hybrid).
+            lit = any(bpy.data.materials[job[1]].glossy.probe_lights
+                      and bpy.data.materials[job[1]].glossy.method_used() in
+                      ("runtime", "hybrid") for job in todo if job[0] == obj.name)
+            world, note = world_of(context.scene, meta) if lit else (None, None)
+            self._probes[obj.name] = (probe_path, meta, world, note)
+        return todo
+
+    def _probe_of(self, obj_name):
+        """(probe pixels, meta, probe path, world, world note) of ``obj_name``'s
+        probe; the pixels of one probe at a time are kept."""
+        probe_path, meta, world, note = self._probes[obj_name]
+        if self._loaded[0] != obj_name:
+            self._loaded = (None, None)  # free the last one before reading the next
+            probe, _ = exr.read(bpy.path.abspath(probe_path))
+            self._loaded = (obj_name, probe)
+        return self._loaded[1], meta, probe_path, world, note
+
+    def _object_jobs(self, obj, probe_path, meta, folder, taken, lamp_objects):
+        """The jobs of one object's materials (:meth:`_prepare`); claims their files
+        in ``taken``."""
+        todo = []
         for material in _materials(obj):
             check_settings(material)
             if ownership.needs_own_copy(material, obj):
@@ -328,15 +386,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                     f"{material.name}: anisotropic BRDF: lamps only (the {method} map "
                     f"needs an isotropic BRDF; Runtime Sampling and Hybrid reflect the "
                     f"environment), the environment reflection is left out")
-            todo.append((material.name, path, diffuse_path, lamp_path, runtime_path,
-                         knot_paths))
-        # The world's pixels (read and hashed: about a second for an 8k HDRI) only
-        # when some material shades probe lights (Runtime Sampling, the Hybrid).
-        lit = any(bpy.data.materials[name].glossy.probe_lights
-                  and bpy.data.materials[name].glossy.method_used() in ("runtime", "hybrid")
-                  for name, *_ in todo)
-        self._world, self._world_note = world_of(context.scene, meta) if lit else (None, None)
-        return obj, probe, meta, probe_path, todo
+            todo.append((obj.name, material.name, path, diffuse_path, lamp_path,
+                         runtime_path, knot_paths))
+        return todo
 
     @staticmethod
     def _bake_steps(material, path, diffuse_path, lamp_path, probe, meta, probe_path,
@@ -453,57 +505,69 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                                        lamp_path, lamp_factors, probe_path, obj_name, reason,
                                        int(rows), runtime_path, runtime, knots))
 
+    def _job_steps(self, job):
+        """One job of :meth:`_prepare` as :meth:`_bake_steps`, its messages prefixed
+        with the object's name when the bake spans several objects."""
+        obj_name, name, path, diffuse_path, lamp_path, runtime_path, knot_paths = job
+        probe, meta, probe_path, world, world_note = self._probe_of(obj_name)
+        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
+                                 probe, meta, probe_path, obj_name, runtime_path, knot_paths,
+                                 world, world_note)
+        return steps, (f"{obj_name}: " if len(self._probes) > 1 else "")
+
     def execute(self, context):
         try:
-            obj, probe, meta, probe_path, todo = self._prepare(context)
+            todo = self._prepare(context)
             with BlenderProgress(context, "bake materials") as progress:
-                for index, (name, path, diffuse_path, lamp_path, runtime_path, knot_paths) in \
-                        enumerate(todo):
-                    progress(index / max(len(todo), 1), f"baking {name}")
-                    run_steps(self._bake_steps(bpy.data.materials[name], path, diffuse_path,
-                                               lamp_path, probe, meta, probe_path, obj.name,
-                                               runtime_path, knot_paths, self._world,
-                                               self._world_note),
-                              scaled(progress, index / len(todo), (index + 1) / len(todo)))
-                    progress((index + 1) / len(todo), f"baked {name} "
+                for index, job in enumerate(todo):
+                    steps, who = self._job_steps(job)
+                    name = job[1]
+                    progress(index / max(len(todo), 1), f"baking {who}{name}")
+                    run_steps(steps, scaled(progress, index / len(todo),
+                                            (index + 1) / len(todo)))
+                    progress((index + 1) / len(todo), f"baked {who}{name} "
                              f"({bpy.data.materials[name].glossy.size_reason})")
                 progress(1.0, f"baked {len(todo)} material(s)")
         except (BakeError, ValueError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
+        finally:
+            self._loaded = (None, None)
         for warning in self._warnings:
             self.report({"WARNING"}, warning)
-        self.report({"INFO"}, f"Glossy baked {len(todo)} material(s)")
+        self.report({"INFO"}, self._summary(len(todo)))
         return {"FINISHED"}
+
+    def _summary(self, count):
+        objects = len(self._probes)
+        return f"Glossy baked {count} material(s)" + \
+            (f" of {objects} objects" if objects > 1 else "")
 
     # UI: one part of a material (the fit, a pair of slices, the diffuse map) per
     # timer tick; Esc stops within a part and the unfinished material writes nothing.
     progress_title = "bake materials"
 
     def _begin(self, context):
-        obj, self._probe, self._meta, self._probe_path, todo = self._prepare(context)
-        self._object_name = obj.name
-        return todo
+        return self._prepare(context)
 
     def _run_step(self, context, step):
-        name, path, diffuse_path, lamp_path, runtime_path, knot_paths = step
-        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
-                                 self._probe, self._meta, self._probe_path, self._object_name,
-                                 runtime_path, knot_paths, self._world, self._world_note)
-        return prefixed_steps(f"{name}: ", steps)
+        steps, who = self._job_steps(step)
+        return prefixed_steps(f"{who}{step[1]}: ", steps)
 
     def _done_message(self):
+        self._loaded = (None, None)
         for warning in self._warnings:
             self.report({"WARNING"}, warning)
-        return f"Glossy baked {self._done} material(s)"
+        return self._summary(self._done)
 
     def _cancel_message(self):
+        self._loaded = (None, None)
         return (f"Bake cancelled after {self._done} material(s); the unfinished one wrote "
                 f"nothing")
 
 
 class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
-    """Rebuild each baked material's nodes as the Glossy 3D-map lookup (EEVEE and Cycles)"""
+    """Rebuild the selected objects' baked materials as Glossy lookups (EEVEE and Cycles)"""
 
     bl_idname = "glossy.attach_materials"
     bl_label = "Attach Lookups"
@@ -557,18 +621,26 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         return (roughness_socket, maps), inputs
 
     def execute(self, context):
-        obj, _ = _object_with_probe(context)
-        attached, warnings = 0, []
+        objects, message = _targets(context)
+        if not objects:
+            self.report({"ERROR"}, message)
+            return {"CANCELLED"}
+        attached, warnings, done = 0, [], set()
         try:
-            for material in _materials(obj):  # every check before the first change
-                if material.glossy.bake_path or material.glossy.lamp_path:
-                    check_settings(material)
-                    if bake_status(material.glossy, obj.glossy.probe_path) == "damaged":
-                        raise BakeError(f"{material.name}: the baked file "
-                                        f"{material.glossy.bake_path} is damaged or was "
-                                        f"changed since the bake: bake again")
+            for obj in objects:  # every check before the first change
+                for material in _materials(obj):
+                    if material.glossy.bake_path or material.glossy.lamp_path:
+                        check_settings(material)
+                        if bake_status(material.glossy, obj.glossy.probe_path) == "damaged":
+                            raise BakeError(f"{material.name}: the baked file "
+                                            f"{material.glossy.bake_path} is damaged or was "
+                                            f"changed since the bake: bake again")
             lamps, skipped = scene_lamps(context.scene)
-            for material in _materials(obj):
+            for obj, material in [(each, material) for each in objects
+                                  for material in _materials(each)]:
+                if material.name in done:  # one material on several selected objects
+                    continue
+                done.add(material.name)
                 settings = material.glossy
                 path = settings.bake_path
                 if not path and not settings.lamp_path:
@@ -624,6 +696,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         for warning in warnings:
             self.report({"WARNING"}, warning)
         self.report({"INFO"}, f"Glossy attached {attached} material(s)"
+                    + (f" of {len(objects)} objects" if len(objects) > 1 else "")
                     + (f" lit by {len(lamps)} lamp(s)" if lamps else ""))
         return {"FINISHED"}
 

@@ -78,19 +78,19 @@ def main():
     scene.camera = camera
     bpy.ops.wm.save_as_mainfile(filepath=str(out / "demo_scene.blend"))
 
+    # As a user does: select the three, then Capture Probes, Bake Materials and
+    # Attach Lookups once each (every object gets its own probe and bakes).
+    bpy.ops.object.select_all(action="DESELECT")
     for obj, _, _ in pairs:
-        bpy.ops.object.select_all(action="DESELECT")
         obj.select_set(True)
-        bpy.context.view_layer.objects.active = obj
-        bpy.ops.glossy.capture_probes()
-        bpy.ops.glossy.bake_materials()
-        bpy.ops.glossy.attach_materials()
+    bpy.context.view_layer.objects.active = pairs[0][0]
+    bpy.ops.glossy.capture_probes()
+    bpy.ops.glossy.bake_materials()
+    bpy.ops.glossy.attach_materials()
     settings = scene.glossy
     settings.validate_resolution = 240
     settings.validate_samples = 64
     settings.validate_eevee_samples = 16
-    for obj, _, _ in pairs:
-        obj.select_set(True)
     bpy.ops.glossy.validate()
     folder = out / "glossy" / "validation"
     copy = out / "validation"

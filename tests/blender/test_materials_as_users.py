@@ -32,6 +32,28 @@ def test_recapturing_one_object_leaves_the_other_unchanged(shared):
     assert shared["a_max_change"] == 0.0  # ...and A's pixels are bit for bit the same
 
 
+def test_one_bake_and_attach_for_the_whole_selection(shared):
+    together = shared["together"]
+    # C alone: no probe, refused with one message; in the selection it is skipped.
+    assert together["only_c"] == [["CANCELLED"], "Error: C has no probe yet: capture one "
+                                                 "first"]
+    assert together["steps"] == [[["FINISHED"], ""], [["FINISHED"], ""]]
+    assert together["plain_path"] == ""
+    # Each sphere's material baked in that one call, against its own probe.
+    for name, baked in together["baked"].items():
+        assert baked["object"] == name and baked["status"] == "up to date", baked
+        assert baked["roughness"] == pytest.approx(0.5)
+    red, green = together["means"]["A"], together["means"]["B"]
+    assert red[0] > 10 * max(red[1], red[2]) and green[1] > 10 * max(green[0], green[2])
+    # A constant world reflects its colour times the GGX albedo at n.v: A's red
+    # against the albedo at Roughness 0.5 (the Hybrid's runtime part is exact for a
+    # constant world, up to the half-float atlas and its albedo table's
+    # interpolation, both under 0.1%). 1% is 10x below the change from 0.3 to
+    # 0.5 (0.976 -> 0.882), so a bake at the old roughness or another probe fails.
+    assert red[0] == pytest.approx(together["a_red_expected"], rel=0.01)
+    assert shared["first"]["A"][0] > 1.05 * red[0]
+
+
 @pytest.fixture(scope="module")
 def textured(tmp_path_factory, hdri_dir):
     workdir = tmp_path_factory.mktemp("textured")

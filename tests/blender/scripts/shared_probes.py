@@ -9,6 +9,11 @@ was captured in). Bake and attach for A,
 then for B; EEVEE renders both (orthographic, 96 x 48 px): each sphere must
 show its own probe's colour. Then B's probe is captured again under a green
 world, and B re-baked and re-attached: A's pixels must not change.
+
+Then, as a user does with a whole scene: both materials' Roughness set to 0.5,
+A, B and a third object C (outside the camera, with a material but no probe)
+selected, and one Bake Materials and one Attach Lookups for the selection:
+each sphere must show its own probe at the new roughness; C is skipped.
 """
 
 import json
@@ -21,6 +26,7 @@ import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np  # noqa: E402
 from _operators import run, world_probe  # noqa: E402
+from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world, float_exr_output  # noqa: E402
 
@@ -76,6 +82,11 @@ def glossy_for(name, colour):
             run(bpy.ops.glossy.attach_materials)]
 
 
+def render_alpha(tag):
+    """The alpha of render ``tag``'s image (H, W)."""
+    return exr.read(workdir / f"{tag}.exr")[0][..., 3]
+
+
 def render(tag):
     """Mean RGB over each sphere's pixels (alpha 1: the left and right halves)."""
     path = workdir / f"{tag}.exr"
@@ -102,4 +113,45 @@ second = render("second")
 result["second"] = {name: v["mean"] for name, v in second.items()}
 result["a_max_change"] = float(np.abs(second["A"]["pixels"] - first["A"]["pixels"]).max())
 result["a_pixels"] = int(len(first["A"]["pixels"]))
+
+# The whole selection in one call: A (red probe) and B (green probe), and C,
+# which has a material but no probe of its own.
+bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 6.0, 0.0))
+other = bpy.context.object
+other.name = "C"
+plain = bpy.data.materials.new("Plain")
+plain.glossy.model = "ggx"
+other.data.materials.append(plain)
+for sphere in spheres.values():
+    sphere.material_slots[0].material.glossy.roughness = 0.5
+only_c = run(bpy.ops.glossy.bake_materials)  # C alone is selected: refused
+bpy.ops.object.select_all(action="DESELECT")
+for obj in (spheres["A"], spheres["B"], other):
+    obj.select_set(True)
+bpy.context.view_layer.objects.active = other
+together = [run(bpy.ops.glossy.bake_materials), run(bpy.ops.glossy.attach_materials)]
+third = render("together")
+result["together"] = {
+    "only_c": only_c, "steps": together,
+    "means": {name: v["mean"] for name, v in third.items()},
+    "baked": {name: {"material": s.material_slots[0].material.name,
+                     "object": s.material_slots[0].material.glossy.bake_object,
+                     "roughness": s.material_slots[0].material.glossy.roughness,
+                     "status": bake_status(s.material_slots[0].material.glossy,
+                                           s.glossy.probe_path)}
+              for name, s in spheres.items()},
+    "plain_path": plain.glossy.bake_path,
+}
+# A constant world of colour c reflects c times the GGX albedo at n.v: the
+# expected red of A's pixels (orthographic camera straight down, sphere of
+# radius 1 at x = -1.2: 96 px span 5 units).
+from glossy.bake import brdf  # noqa: E402
+
+rows, cols = np.nonzero((np.arange(96)[None, :] < 48) & (render_alpha("together") > 0.999))
+x = (cols + 0.5) / 96 * 5.0 - 2.5 + 1.2
+y = 1.25 - (rows + 0.5) / 48 * 2.5
+mu = np.sqrt(np.clip(1.0 - x * x - y * y, 0.0, 1.0))
+views = np.stack([np.sqrt(1.0 - mu * mu), np.zeros_like(mu), mu], axis=-1)
+albedo = brdf.parse("ggx:roughness=0.5").albedo(views)[..., 0]
+result["together"]["a_red_expected"] = float(np.mean(1.0 * albedo))
 result_path.write_text(json.dumps(result, indent=1))
