@@ -26,8 +26,8 @@ import bpy  # noqa: E402
 import glossy  # noqa: E402
 import numpy as np  # noqa: E402
 from _operators import run, world_probe  # noqa: E402
-from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.bake import exr  # noqa: E402
+from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world, float_exr_output  # noqa: E402
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
