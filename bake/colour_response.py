@@ -125,8 +125,8 @@ def response(model, parameter="base_color") -> ColourResponse | None:
         mu = np.linspace(0.0, 1.0, MU_KNOTS) ** 2
         return ColourResponse(None, white, mu, np.interp(mu, model.e_mu, model.e_value),
                               float(model.e_avg), np.zeros(3), np.ones(3), True)
-    if not isinstance(model, Principled):
-        return None
+    if not isinstance(model, Principled) or model.conductor is not None:
+        return None  # (a physical conductor's metal takes neither colour)
     if parameter == "base_color" and model.metallic != 1.0:
         return None
     if parameter == "specular_tint" and (model.metallic not in (0.0, 1.0) or

@@ -1,8 +1,10 @@
 """The BRDF of a material's own node tree, as a bake.brdf spec.
 
 From the Material Output's Surface back through reroutes: Principled BSDF,
-Glossy BSDF (all four distributions), Diffuse BSDF, Mix Shader (a constant
-factor, or Blender's Fresnel node) and Add Shader of these. The spec is exact
+Metallic BSDF (GGX or Multiscatter GGX; F82 Tint or Physical Conductor: the
+Principled BSDF's metal layer), Glossy BSDF (all four distributions), Diffuse
+BSDF, Mix Shader (a constant factor, or Blender's Fresnel node) and Add Shader
+of these. The spec is exact
 where Cycles' formulas allow it (bake.brdf.principled, bake.brdf.cycles);
 everything else is listed, never dropped silently:
 
@@ -35,7 +37,7 @@ GLOSSY_MODELS = {"GGX": "ggx", "BECKMANN": "beckmann", "ASHIKHMIN_SHIRLEY": "ash
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 #: The BSDF nodes the reader reads (and plans per-pixel inputs of).
 BSDF_NODES = ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfAnisotropic",
-              "ShaderNodeBsdfGlossy")
+              "ShaderNodeBsdfGlossy", "ShaderNodeBsdfMetallic")
 #: Below this roughness Cycles renders a perfect mirror (CYCLES.md).
 MIN_ROUGHNESS = 0.01
 #: A colour applied per pixel is baked at its mean, each channel at least this
@@ -238,6 +240,9 @@ class _Reader:
         kind = node.bl_idname
         if kind == "ShaderNodeBsdfDiffuse":
             return "Color", "diffuse", True, {"diffuse"}
+        if kind == "ShaderNodeBsdfMetallic":  # a physical conductor takes no colour
+            return "Base Color", "glossy" if node.fresnel_type == "F82" else None, False, \
+                {"glossy"}
         if kind != "ShaderNodeBsdfPrincipled":
             return "Color", "glossy", node.distribution != "MULTI_GGX", {"glossy"}
         metallic = float(node.inputs["Metallic"].default_value)
@@ -261,6 +266,9 @@ class _Reader:
         reflection is linear in it, its Normal, its Roughness from an image."""
         kind = top.bl_idname
         principled = kind == "ShaderNodeBsdfPrincipled"
+        # The Metallic BSDF with F82 Tint is the Principled BSDF's metal (its Edge
+        # Tint the Specular Tint); a physical conductor's colour is its n and k.
+        f82_metal = kind == "ShaderNodeBsdfMetallic" and top.fresnel_type == "F82"
         colour_input, part, exact, split = "Color", "glossy", True, False
         metallic_varies = principled and self.varying(top, "Metallic")
         if metallic_varies:
@@ -280,6 +288,9 @@ class _Reader:
             # (bake.colour_response).
             split = part == "glossy"
             exact = True
+        elif kind == "ShaderNodeBsdfMetallic":
+            colour_input = "Base Color"
+            part, split, exact = ("glossy", True, True) if f82_metal else (None, False, False)
         elif kind == "ShaderNodeBsdfDiffuse":
             part = "diffuse"
         else:
@@ -292,11 +303,12 @@ class _Reader:
                 "exact": exact, "split": split}
         # The specular tint of a metal or dielectric: split like a metal's base colour
         # (one split per material: the base colour's comes first).
-        if principled and part in ("glossy", "diffuse") and not metallic_varies and \
-                self.varying(top, "Specular Tint") and \
+        tint_input = "Edge Tint" if f82_metal else "Specular Tint"
+        if (principled or f82_metal) and part in ("glossy", "diffuse") and \
+                not metallic_varies and self.varying(top, tint_input) and \
                 not (split and (top.name, colour_input) in self.per_pixel):
-            self.per_pixel[(top.name, "Specular Tint")] = {
-                "kind": "tint", "node": top.name, "input": "Specular Tint", "split": True,
+            self.per_pixel[(top.name, tint_input)] = {
+                "kind": "tint", "node": top.name, "input": tint_input, "split": True,
                 "part": part}
         # A coat tint texture: a map of the coat alone, and everything below the
         # coat scaled per pixel by a function of the tint and the view
@@ -428,6 +440,8 @@ class _Reader:
             return self.principled(source)
         if kind in ("ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfGlossy"):
             return self.glossy(source)
+        if kind == "ShaderNodeBsdfMetallic":
+            return self.metallic(source)
         if kind == "ShaderNodeBsdfDiffuse":
             return self.diffuse(source)
         if kind == "ShaderNodeAddShader":
@@ -445,8 +459,8 @@ class _Reader:
             self.derived.ignored.append(f"{source.name}: {source.bl_label} (no reflection)")
             return None
         raise NodeReadError(f"{self.material.name}: Glossy cannot read the {source.bl_label} "
-                            f"node '{source.name}' (it reads Principled, Glossy and Diffuse "
-                            "BSDFs, Mix and Add Shaders)")
+                            f"node '{source.name}' (it reads Principled, Metallic, Glossy and "
+                            "Diffuse BSDFs, Mix and Add Shaders)")
 
     def mix(self, node, path):
         first = self.shader(node.inputs[1], f"{path} > {node.name}")
@@ -498,6 +512,46 @@ class _Reader:
         model = GLOSSY_MODELS[node.distribution]
         return (f"{model}:roughness={roughness:.6g},anisotropy={anisotropy:.6g},"
                 f"rotation={rotation:.6g},color={_fmt(colour)}")
+
+    def _vector(self, node, name, low, high):
+        """A vector input (3,) (the Metallic BSDF's IOR and Extinction) clipped to
+        [low, high]; a link is noted and its unlinked value used."""
+        socket = node.inputs[name]
+        value = np.clip(np.asarray(socket.default_value[:3], dtype=np.float64), low, high)
+        source, _ = self._source(socket)
+        label = f"{node.name}: {name}"
+        if source is not None:
+            self.derived.approximated.append(
+                f"{label}: driven by '{source.name}' ({source.bl_idname}); its unlinked value "
+                f"{_fmt(value)} is used")
+        self.derived.inputs[label] = np.round(value, 6).tolist()
+        return value
+
+    def metallic(self, node):
+        """Cycles' Metallic BSDF as the Principled BSDF's metal layer (bake.brdf.principled):
+        the same GGX (alpha = Roughness^2, the Principled anisotropy mapping) and
+        multiscatter energy term, with the F82-tint Fresnel (Base Color, Edge Tint)
+        or the physical conductor's (IOR n + i Extinction k)."""
+        if node.distribution == "BECKMANN":
+            raise NodeReadError(
+                f"{self.material.name}: the Metallic BSDF '{node.name}' uses the Beckmann "
+                "distribution, which Glossy reads in the Glossy BSDF only: choose GGX or "
+                "Multiscatter GGX on the Metallic BSDF")
+        if self.linked(node, "Thin Film Thickness") or \
+                float(node.inputs["Thin Film Thickness"].default_value) > 0.0:
+            self.derived.ignored.append(f"{node.name}: thin film (Thin Film Thickness)")
+        self._note_normal(node, ("Normal", "Tangent"))
+        values = {"metallic": "1", "roughness": _fmt(self._roughness(node))}
+        if node.fresnel_type == "F82":
+            values["base_color"] = _fmt(self.colour(node, "Base Color"))
+            values["specular_tint"] = _fmt(np.clip(self.value(node, "Edge Tint"), 0, 1))
+        values["anisotropy"] = _fmt(np.clip(self.value(node, "Anisotropy"), 0, 1))
+        values["rotation"] = _fmt(float(self.value(node, "Rotation")) % 1.0)
+        values["multiscatter"] = "1" if node.distribution == "MULTI_GGX" else "0"
+        if node.fresnel_type != "F82":  # PHYSICAL_CONDUCTOR
+            values["conductor_ior"] = _fmt(self._vector(node, "IOR", 0.0, 100.0))
+            values["conductor_extinction"] = _fmt(self._vector(node, "Extinction", 0.0, 100.0))
+        return "principled:" + ",".join(f"{k}={v}" for k, v in values.items())
 
     def diffuse(self, node):
         colour = self.colour(node, "Color")

@@ -20,7 +20,14 @@ first; ``saturate`` clamps to [0, 1]; max_c is the largest RGB channel):
 2. Metal (weight metallic W): GGX (alpha = roughness^2 and the Principled
    anisotropy, aspect = sqrt(1 - 0.9 A), ax = alpha / aspect, ay = alpha aspect)
    with the F82-tint Fresnel of PrincipledMetallic (F0 = base_color,
-   F82 tint = specular_tint); then W *= 1 - metallic.
+   F82 tint = specular_tint); then W *= 1 - metallic. With ``conductor_ior`` n
+   and ``conductor_extinction`` k (both RGB, given together) the metal's Fresnel
+   is instead the exact unpolarized Fresnel of a conductor of index n + i k
+   (bake.brdf.fresnel.conductor), and its Fss that of the F82 model through the
+   conductor's values at c = 1 and c = 1/7: Cycles' Metallic BSDF with Fresnel
+   Type Physical Conductor (``kernel/closure/bsdf_util.h``,
+   ``fresnel_conductor`` and ``fresnel_conductor_Fss``). Its F82 Tint type is
+   this model's metal as is (Edge Tint = specular_tint).
 3. Specular (weight W): the same GGX with the generalized-Schlick Fresnel of
    an IOR adjusted by ``specular_ior_level`` (F0 = F0(ior) 2 level, eta from that
    F0): F = mix(F0 tint, 1, saturate((F_real(h.wo, eta) - F0(eta)) / (1 - F0(eta)))).
@@ -144,6 +151,11 @@ class Principled(BRDF):
               "0: GGX"),
         Param("diffuse", 1.0, 0.0, 1.0, "1: with the diffuse layer, 0: the glossy layers "
               "alone (what a map bakes; the diffuse goes to the irradiance map)"),
+        # Absent unless given (the spec of an F82 metal stays as it was).
+        Param("conductor_ior", None, 0.0, 100.0, "Physical conductor: the real part n of the "
+              "metal's index (Metallic BSDF IOR)", rgb=True),
+        Param("conductor_extinction", None, 0.0, 100.0, "Physical conductor: the imaginary "
+              "part k of the metal's index (Metallic BSDF Extinction)", rgb=True),
     )
 
     @classmethod
@@ -153,6 +165,11 @@ class Principled(BRDF):
                 from .params import SpecError
 
                 raise SpecError(f"principled: {flag} is 0 or 1, not {params[flag]:g}")
+        if ("conductor_ior" in params) != ("conductor_extinction" in params):
+            from .params import SpecError
+
+            raise SpecError("principled: conductor_ior and conductor_extinction are given "
+                            "together (a physical conductor's n and k)")
         return params
 
     def _setup(self):
@@ -171,6 +188,17 @@ class Principled(BRDF):
         tint = np.asarray(p["specular_tint"], dtype=np.float64)
         mu82 = 6.0 / 7.0
         self.b82 = (self.base + (1.0 - self.base) * mu82**5) * 7.0 / mu82**6 * (1.0 - tint)
+        self.conductor = None  # (n, k) (3,) each of a physical conductor
+        if "conductor_ior" in p:
+            n = np.asarray(p["conductor_ior"], dtype=np.float64)
+            k = np.asarray(p["conductor_extinction"], dtype=np.float64)
+            self.conductor = (n, k)
+            # Fss through the F82 model fitted at c = 1 and c = 1/7 (as Cycles).
+            f0 = fresnel.conductor(1.0, n, k)
+            f82 = fresnel.conductor(1.0 / 7.0, n, k)
+            schlick82 = f0 + (1.0 - f0) * mu82**5
+            self._conductor_fss = np.clip(
+                f0 + (1.0 - f0) / 21.0 - 7.0 / mu82**6 * (schlick82 - f82) / 126.0, 0.0, 1.0)
         # Dielectric specular: the adjusted IOR.
         self.eta = self._specular_eta()
         f0 = float(fresnel.f0_from_ior(p["ior"]))
@@ -220,7 +248,19 @@ class Principled(BRDF):
         return ggx_d(h, ax, ay) * g2 / (4.0 * wi[..., 2] * wo[..., 2]), dot(h, wo)
 
     def _metal_fss(self):
+        if self.conductor is not None:
+            return self._conductor_fss
         return self.base + (1.0 - self.base) / 21.0 - self.b82 / 126.0
+
+    def metal_fresnel(self, cos_hv):
+        """The metal layer's Fresnel (..., 3) at c = h.v (...): F82 tint, or the
+        physical conductor's."""
+        c = np.clip(np.asarray(cos_hv, dtype=np.float64), 0.0, 1.0)
+        if self.conductor is not None:
+            return fresnel.conductor(c, *self.conductor)
+        c = c[..., None]
+        return np.clip(fresnel.schlick(c[..., 0], self.base) - self.b82 * c * (1.0 - c) ** 6,
+                       0.0, 1.0)
 
     def _spec_fss(self):
         fss_real = dielectric_hemispherical_average(self.eta)
@@ -288,10 +328,9 @@ class Principled(BRDF):
         lobe, cos_hv = self._ggx(lw, lo, self.ax, self.ay)
         c = np.clip(cos_hv, 0.0, 1.0)[..., None]
         if self.metallic > 0.0:
-            f82 = np.clip(fresnel.schlick(c[..., 0], self.base) - self.b82 * c * (1.0 - c) ** 6,
-                          0.0, 1.0)
             energy, _ = self._energy(mu, self._main, self._metal_fss(), looked=main)
-            total = total + under_coat * self.metallic * lobe[..., None] * f82 * energy
+            total = total + under_coat * self.metallic * lobe[..., None] * \
+                self.metal_fresnel(c[..., 0]) * energy
         if self.eta != 1.0:
             blend = _blend_factor(c[..., 0], self.eta)[..., None]
             f_spec = self.spec_f0 + (1.0 - self.spec_f0) * blend

@@ -37,6 +37,37 @@ def test_metallic_single_scatter_equals_principled_metallic():
     np.testing.assert_allclose(full.f(a, b), metal.f(a, b), rtol=1e-12, atol=1e-14)
 
 
+def test_physical_conductor_is_the_exact_conductor_fresnel():
+    """A conductor's metal: f = the single-scatter GGX lobe times the exact Fresnel of
+    n + i k (a closed form, checked at normal incidence against ((n-1)^2 + k^2) /
+    ((n+1)^2 + k^2)); its Fss is the F82 model's through the conductor's values at
+    c = 1 and 1/7. With n = 1 and k = 0 the Fresnel is 0 (nothing reflects)."""
+    n, k = np.array([0.143, 0.374, 1.442]), np.array([3.983, 2.385, 1.603])
+    spec = "principled:metallic=1,roughness=0.4,multiscatter=0,anisotropy=0.5,rotation=0.1"
+    gold = brdf.parse(f"{spec},conductor_ior=0.143/0.374/1.442,"
+                      f"conductor_extinction=3.983/2.385/1.603")
+    white = brdf.parse(f"{spec},base_color=1")  # F = 1 everywhere: the bare lobe
+    a, b = _directions(2000, 3), _directions(2000, 4)
+    h = a + b
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    c = np.sum(h * b, axis=1)
+    from bake.brdf import fresnel
+
+    np.testing.assert_allclose(gold.f(a, b), white.f(a, b) * fresnel.conductor(c, n, k),
+                               rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(fresnel.conductor(1.0, n, k),
+                               ((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2), rtol=1e-12)
+    f0, f82 = fresnel.conductor(1.0, n, k), fresnel.conductor(1 / 7, n, k)
+    b82 = 7 / (6 / 7) ** 6 * (f0 + (1 - f0) * (6 / 7) ** 5 - f82)
+    np.testing.assert_allclose(gold._metal_fss(), f0 + (1 - f0) / 21 - b82 / 126, rtol=1e-12)
+    air = brdf.parse(f"{spec},conductor_ior=1,conductor_extinction=0")
+    assert np.abs(air.f(a, b)).max() < 1e-12
+    # The F82 metal's spec is unchanged by the conductor's keys (absent unless given).
+    assert "conductor" not in brdf.parse("principled:metallic=1").spec
+    with pytest.raises(brdf.SpecError, match="given together"):
+        brdf.parse("principled:metallic=1,conductor_ior=2")
+
+
 def test_specular_level_half_is_the_real_dielectric_fresnel():
     """At Specular IOR Level 0.5 and a white tint the blend factor gives back the
     exact dielectric Fresnel: f_spec = f_GGX F(h.v, ior) (the diffuse dropped)."""

@@ -1,5 +1,6 @@
 """Specs read from users' node trees (glossy_addon.node_reader) against Cycles renders of
-those same trees: Principled metals, plastics, coats, brushed anisotropy, Mix and Add."""
+those same trees: Principled metals, plastics, coats, brushed anisotropy, Mix and Add,
+and Metallic BSDFs (F82 Tint and Physical Conductor)."""
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ pytestmark = [pytest.mark.blender, pytest.mark.slow]
 #: Kinds whose value uses no table: single-scatter GGX / Beckmann with analytic
 #: Fresnel, Lambert and the Fresnel node. Cycles agrees with these to float32
 #: precision (CYCLES.md), so 1e-4 relative.
-EXACT = {"rough_metal", "brushed", "mix_constant", "mix_fresnel"}
+EXACT = {"rough_metal", "brushed", "mix_constant", "mix_fresnel", "metallic_f82", "conductor"}
 #: The rest read Cycles' tabulated E(rough, mu) (32 x 32) or Fresnel blend s
 #: (16^3, trilinear), which our integrals match to ~6e-4 (measured: at most
 #: 5.8e-4 relative on these planes): 1.5e-3.
@@ -28,7 +29,7 @@ def renders(tmp_path_factory):
 
 def test_the_reader_covers_the_kinds_a_user_builds(renders):
     kinds = {c["kind"]: c for c in renders["configs"]}
-    assert len(kinds) >= 6
+    assert len(kinds) == 16
     assert kinds["rough_metal"]["spec"].startswith("principled:")
     assert "metallic=1" in kinds["rough_metal"]["spec"]
     assert "multiscatter=1" in kinds["plastic"]["spec"]  # the node's distribution is read
@@ -38,7 +39,15 @@ def test_the_reader_covers_the_kinds_a_user_builds(renders):
     assert kinds["mix_constant"]["spec"].startswith("sum(scale(k=0.6;")
     assert kinds["add"]["spec"].startswith("sum(")
     assert any("Tangent" in line for line in kinds["brushed"]["ignored"])
-    assert all(not c["ignored"] for c in renders["configs"] if c["kind"] != "brushed")
+    assert all(not c["ignored"] for c in renders["configs"]
+               if c["kind"] not in ("brushed", "metallic_brushed"))
+    # The Metallic BSDF: F82 Tint is the Principled metal (Edge Tint as Specular
+    # Tint); Physical Conductor carries n and k.
+    assert "specular_tint=0.6/0.8/1" in kinds["metallic_f82"]["spec"]
+    assert "multiscatter=0" in kinds["metallic_f82"]["spec"]
+    assert "anisotropy=0.6" in kinds["metallic_brushed"]["spec"]
+    assert "conductor_ior=2.757/2.513/2.231" in kinds["conductor"]["spec"]
+    assert "conductor_extinction=3.983/2.385/1.603" in kinds["conductor_multi"]["spec"]
 
 
 def test_sun_lamp_pixels_equal_the_derived_brdf(renders):

@@ -52,3 +52,31 @@ def test_the_reference_follows_a_base_color_texture_per_pixel(tmp_path):
     # the Hybrid measured 24.3% on the Rough sphere).
     assert result["methods"]["Metal"] == "hybrid" and result["methods"]["Rough"] == "3d"
     assert result["figures"]["Metal"]["methods"]["eevee_glossy"]["relative_rms"] < 0.034
+
+
+def test_metallic_bsdf_materials_are_read_baked_and_validated(tmp_path):
+    """Cycles' Metallic BSDF, F82 Tint with a Base Color texture and Physical Conductor
+    (gold), both spheres through one call of each operator. Before stop 55 the node
+    reader refused the node ("Glossy cannot read the Metallic BSDF")."""
+    result = run_script("validate_metallic.py", studio_lights() / "forest.exr", tmp_path,
+                        tmp_path / "r.json", timeout=900)
+    assert all(v == [["FINISHED"], ""] for v in result["steps"].values()), result["steps"]
+    assert "specular_tint=0.7/0.85/1" in result["specs"]["F82"]
+    assert "conductor_ior=0.143/0.374/1.442" in result["specs"]["Gold"]
+    assert any(note.startswith("F82: the NumPy reference follows Metallic BSDF: Base Color "
+                               "per pixel") for note in result["notes"]), result["notes"]
+    for name in ("F82", "Gold"):
+        assert result["methods"][name] == "hybrid"
+        figures = result["figures"][name]
+        noise, methods = figures["cycles_noise"], figures["methods"]
+        # The reference: tests/blender/test_validate.py's bound (the two-seed
+        # mean's noise plus at most 1%). Measured (128 px): F82 1.52% (noise
+        # 1.89%), Gold 2.45% (noise 2.31%).
+        assert methods["reference"]["relative_rms"] < noise + 0.01, (name, noise, methods)
+        # EEVEE with Glossy: measured 2.37% and 2.55%, against the careful native
+        # EEVEE's 13.9% and 12.9%: at most half of it (issue 11's bar), and within
+        # the noise plus 2 points (the Hybrid's own error at GGX 0.3 in forest:
+        # 1.6-2.6%, README "Where the methods stand").
+        glossy = methods["eevee_glossy"]["relative_rms"]
+        assert glossy < 0.5 * methods["eevee_native_careful"]["relative_rms"], (name, methods)
+        assert glossy < noise + 0.02, (name, noise, glossy)

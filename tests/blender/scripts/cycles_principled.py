@@ -3,11 +3,12 @@ and derive each one's spec with glossy_addon.node_reader.
 
     python cycles_principled.py WORKDIR RESULT.json
 
-Twelve materials as a user builds them (Principled rough metal, smooth metal
+Sixteen materials as a user builds them (Principled rough metal, smooth metal
 with specular tint, plastics, coated metal and plastic, brushed anisotropic
 metal, a half-metal, a Value-driven roughness, Mix of Diffuse and Glossy by a
-constant and by a Fresnel node, Add of Diffuse and Glossy), each on two tilted
-planes (cycles_glossy.py's set-up: orthographic camera straight down, a delta
+constant and by a Fresnel node, Add of Diffuse and Glossy; Metallic BSDFs: F82
+Tint with GGX, brushed F82 Tint with Multiscatter GGX, Physical Conductor with
+GGX and with Multiscatter GGX), each on two tilted planes (cycles_glossy.py's set-up: orthographic camera straight down, a delta
 sun of strength 1 with shadows off, Filter Glossy 0; furnace: white world, one
 bounce, two seeds). Writes per plane the material's derived spec, ignored and
 approximated lists, n, T, and the measured pixels.
@@ -28,7 +29,7 @@ import bpy  # noqa: E402
 from _plane_grid import PlaneGrid  # noqa: E402
 from glossy.glossy_addon.node_reader import read_material  # noqa: E402
 
-GRID, CELL = 5, 16
+GRID, CELL = 6, 16
 SUNS = [np.array([0.5, 0.3, 0.8]), np.array([0.9, -0.2, 0.35])]
 
 
@@ -47,6 +48,23 @@ def glossy(nodes, distribution, roughness, color=(1, 1, 1)):
     node.inputs["Roughness"].default_value = roughness
     node.inputs["Color"].default_value = (*color, 1.0)
     return node
+
+
+def metallic(nodes, distribution, fresnel_type, **inputs):
+    node = nodes.new("ShaderNodeBsdfMetallic")
+    node.distribution = distribution
+    node.fresnel_type = fresnel_type
+    for name, value in inputs.items():
+        socket = node.inputs[name.replace("_", " ")]
+        socket.default_value = (*value, 1.0) if socket.type == "RGBA" else value
+    return node
+
+
+def tangent_link(nodes, links, node, tangent_vector):
+    tangent = nodes.new("ShaderNodeCombineXYZ")
+    for axis, value in zip("XYZ", tangent_vector, strict=True):
+        tangent.inputs[axis].default_value = value
+    links.new(tangent.outputs["Vector"], node.inputs["Tangent"])
 
 
 def diffuse(nodes, color):
@@ -84,6 +102,19 @@ def build(kind, tree, tangent_vector):
             tangent.inputs[axis].default_value = value
         links.new(tangent.outputs["Vector"], node.inputs["Tangent"])
         return node
+    if kind == "metallic_f82":
+        return metallic(nodes, "GGX", "F82", Base_Color=(0.9, 0.7, 0.4), Edge_Tint=(0.6, 0.8, 1.0),
+                        Roughness=0.35)
+    if kind == "metallic_brushed":
+        node = metallic(nodes, "MULTI_GGX", "F82", Base_Color=(0.95, 0.95, 0.9),
+                        Edge_Tint=(1.0, 0.9, 0.8), Roughness=0.45, Anisotropy=0.6, Rotation=0.15)
+        tangent_link(nodes, links, node, tangent_vector)
+        return node
+    if kind == "conductor":  # Blender's default n and k (a silver-like metal)
+        return metallic(nodes, "GGX", "PHYSICAL_CONDUCTOR", Roughness=0.3)
+    if kind == "conductor_multi":  # gold
+        return metallic(nodes, "MULTI_GGX", "PHYSICAL_CONDUCTOR", Roughness=0.5,
+                        IOR=(0.143, 0.374, 1.442), Extinction=(3.983, 2.385, 1.603))
     if kind == "half_metal":
         return principled(nodes, "MULTI_GGX", Metallic=0.5, Base_Color=(0.6, 0.6, 0.3),
                           Roughness=0.4)
@@ -117,7 +148,8 @@ def build(kind, tree, tangent_vector):
 
 KINDS = ["rough_metal", "tinted_metal", "plastic", "plastic_level", "coated_metal",
          "coated_plastic", "brushed", "half_metal", "value_roughness", "mix_constant",
-         "mix_fresnel", "add"]
+         "mix_fresnel", "add", "metallic_f82", "metallic_brushed", "conductor",
+         "conductor_multi"]
 
 rng = np.random.default_rng(31)
 configs = []
