@@ -10,8 +10,9 @@ constant and by a Fresnel node, Add of Diffuse and Glossy; Metallic BSDFs: F82
 Tint with GGX, brushed F82 Tint with Multiscatter GGX, Physical Conductor with
 GGX and with Multiscatter GGX), each on two tilted planes (cycles_glossy.py's
 set-up: orthographic camera straight down, a delta sun of strength 1 with
-shadows off, Filter Glossy 0; furnace: white world, one bounce, two seeds). Writes per plane the material's derived spec, ignored and
-approximated lists, n, T, and the measured pixels.
+shadows off, Filter Glossy 0; furnace: white world, one bounce, two seeds).
+Writes per plane the material's derived spec, ignored and approximated lists,
+n, T, and the measured pixels.
 """
 
 import json
