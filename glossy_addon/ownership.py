@@ -111,6 +111,26 @@ def owns_probe(obj) -> bool:
     return path is not None and owns(obj, path)
 
 
+def read_only_problem(data) -> str | None:
+    """Why Glossy cannot keep its state on ``data`` (an object or material), or None:
+    data linked from a library, or a library override, is reloaded from its
+    library when the file opens, so a probe, bake or lookup recorded on it (and
+    the lookup's nodes) would be lost on the next open while the files stayed on
+    disk. Make it local first."""
+    library = data.library
+    override = getattr(data, "override_library", None)
+    if library is None and override is None and getattr(data, "is_editable", True):
+        return None
+    kind = "object" if isinstance(data, bpy.types.Object) else "material"
+    if library is None and override is not None and override.reference is not None:
+        library = override.reference.library
+    where = f" from {bpy.path.basename(library.filepath)}" if library is not None else ""
+    how = "a library override" if override is not None else "linked"
+    return (f"{data.name} is {how}{where}: Blender reloads a linked {kind} from its library "
+            f"when the file opens, so what Glossy records on it would be lost; make it local "
+            f"first (Object > Relations > Make Local)")
+
+
 def probe_problem(obj) -> str | None:
     """Why ``obj``'s recorded probe is not its own (a copy's), or None."""
     path = resolved(obj.glossy.probe_path)

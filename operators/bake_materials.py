@@ -286,6 +286,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 problem = ownership.probe_problem(obj)
                 if problem:
                     raise BakeError(problem)
+                for material in _materials(obj):
+                    problem = ownership.read_only_problem(material)
+                    if problem:
+                        raise BakeError(problem)
         for obj in objects:
             if obj.name in without:
                 continue
@@ -629,6 +633,9 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
         try:
             for obj in objects:  # every check before the first change
                 for material in _materials(obj):
+                    problem = ownership.read_only_problem(material)
+                    if problem:
+                        raise BakeError(problem)
                     if material.glossy.bake_path or material.glossy.lamp_path:
                         check_settings(material)
                         if bake_status(material.glossy, obj.glossy.probe_path) == "damaged":

@@ -148,6 +148,9 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         plan = []
         for obj in _targets(context):
             settings = obj.glossy
+            problem = ownership.read_only_problem(obj)
+            if problem:
+                raise BakeError(problem)
             if settings.clip_end <= settings.clip_start:
                 raise BakeError(f"{obj.name}: clip end must be beyond clip start")
             if settings.probe_source == "WORLD":

@@ -1,7 +1,7 @@
 """Capture, bake, attach and clear under hostile but realistic use (issue 15):
 copies of captured objects, names that clean alike, shared materials, a
-read-only folder, a user's file where a map would go, damaged bakes, and
-settings that cannot work. Each case: the operator's report checked, no file
+read-only folder, a user's file where a map would go, damaged bakes,
+settings that cannot work, and data linked from a library. Each case: the operator's report checked, no file
 Glossy did not write changed, no partial file, Clear removing exactly the
 files the object's own captures and bakes wrote."""
 
@@ -112,6 +112,22 @@ def test_settings_that_cannot_work_are_refused_at_once(result):
     assert "too deep" in _error(r["nested"])
     assert r["map_size_max"] == 1024
     assert r["files"] == []
+
+
+def test_linked_library_data_is_refused_before_any_change(result):
+    """Linked objects and materials: Blender reloads them from their library on open,
+    so a probe or a lookup recorded on them would vanish with the next open while
+    the files stayed behind (measured before stop 55: a linked material baked and
+    attached, its 227 nodes back to 2 and its bake record empty after a reload)."""
+    r = result["linked_library"]
+    assert "LibBall is linked from library.blend" in _error(r["capture_linked"])
+    assert "make it local first" in r["capture_linked"][1]
+    assert r["capture_local"][0] == ["FINISHED"]
+    assert "LibMetal is linked from library.blend" in _error(r["bake"])
+    assert "LibMetal is linked from library.blend" in _error(r["attach"])
+    assert r["files"] == ["Local_probe.exr"]  # the local object's probe alone
+    assert r["bake_path"] == "" and r["nodes"] == 2  # the material untouched
+    assert r["clear"][0] == ["FINISHED"]
 
 
 def test_no_partial_or_stray_file_is_left(result):

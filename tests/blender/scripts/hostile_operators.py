@@ -287,6 +287,37 @@ def refused_settings():
     return out
 
 
+@case
+def linked_library():
+    """An object and a material linked from a library .blend (read-only: Blender
+    reloads them from the library on open, so Glossy's records would be lost)."""
+    out = {}
+    material = shiny("LibMetal")
+    obj = ball("LibBall", 3.0, material)
+    library = workdir / "library.blend"
+    bpy.data.libraries.write(str(library), {obj, material}, fake_user=True)
+    bpy.data.objects.remove(obj)
+    bpy.data.materials.remove(material)
+    with bpy.data.libraries.load(str(library), link=True) as (_, linked):
+        linked.objects, linked.materials = ["LibBall"], ["LibMetal"]
+    obj, material = bpy.data.objects["LibBall"], bpy.data.materials["LibMetal"]
+    bpy.context.scene.collection.objects.link(obj)
+    select_only(obj)
+    out["capture_linked"] = call(bpy.ops.glossy.capture_probes)
+    local = ball("Local", -3.0, material)  # a local object with the linked material
+    select_only(local)
+    out["capture_local"] = call(bpy.ops.glossy.capture_probes)
+    out["bake"] = call(bpy.ops.glossy.bake_materials)
+    out["attach"] = call(bpy.ops.glossy.attach_materials)
+    out["files"] = files()
+    out["bake_path"] = material.glossy.bake_path
+    out["nodes"] = len(material.node_tree.nodes)
+    out["clear"] = call(bpy.ops.glossy.clear)
+    for each in (obj, local):
+        bpy.data.objects.remove(each)
+    return out
+
+
 report["leftovers"] = [f for f in files() if ".partial" in f or "glossy-clear" in f]
 report["all_files"] = files()
 with open(result_path, "w") as handle:
