@@ -1,8 +1,9 @@
 """Capture, bake, attach and clear under hostile but realistic use (issue 15):
 copies of captured objects, names that clean alike, shared materials, a
 read-only folder, a user's file where a map would go, damaged bakes,
-settings that cannot work, and data linked from a library. Each case: the operator's report checked, no file
-Glossy did not write changed, no partial file, Clear removing exactly the
+settings that cannot work, and data linked from a library. Each case: the
+operator's report checked, no file Glossy did not write changed, no partial
+file, Clear removing exactly the
 files the object's own captures and bakes wrote."""
 
 import pytest
