@@ -61,8 +61,8 @@ from bake import (  # noqa: E402
     sampling_runtime,
     slice_basis,
 )
-from bake.reference import reflected_radiance  # noqa: E402
 from bake.zonal import brute_force_convolve  # noqa: E402
+from benchmarks.resolution_curve import truth_of  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 LUM = np.array([0.2126, 0.7152, 0.0722])
@@ -122,7 +122,7 @@ def method_error(forest, quick):
     print(f"   {'BRDF':22s} {'mode':18s} {'median':>7s} {'p95':>7s} {'grazing median':>15s}")
     for spec in ("ggx:roughness=0.1", "ggx:roughness=0.3", "ggx:roughness=0.6", "ward:alpha=0.1"):
         model = brdf.parse(spec)
-        truth = reflected_radiance(model, probe, "cube", normals, views) @ LUM
+        truth = truth_of(model, probe, normals, views) @ LUM
         runs = [("3d", 8), ("3d", 16), ("2d", 16)]
         if spec.startswith("ggx"):
             runs.append(("split-sum", 0))
@@ -355,11 +355,10 @@ def cold():
 
 def auto_bakes(quick):
     from benchmarks import legacy_prefilter
-    from benchmarks.resolution_curve import reconstruction, relative_rms, sphere_pixels
+    from benchmarks.resolution_curve import relative_rms, sphere_pixels, truth_of
 
     sunset, _ = exr.read(studio_lights() / "sunset.exr")
     probe = envmap.convert(sunset, "latlong", "cube", 128)
-    fine = reconstruction(probe, 2)
     normals, views = sphere_pixels(14 if quick else 20)
     print(f"5. one material's bake at Auto from a 6x128^2 probe of sunset.exr (fit, filter, "
           f"pack, write; caches cold); error on {len(normals)} sphere pixels against the "
@@ -375,7 +374,7 @@ def auto_bakes(quick):
             steps = []
             elapsed, baked = bake_like_blender(probe, spec, diffuse, Path(tmp), steps)
             model = brdf.parse(spec)
-            truth = reflected_radiance(model, fine, "cube", normals, views)
+            truth = truth_of(model, probe, normals, views)
             error = relative_rms(baked.shade(normals, views), truth)
             fit = lobes.fit(spec, slices=16)
             start = time.perf_counter()

@@ -281,3 +281,56 @@ def test_a_narrow_lobe_mixed_with_a_diffuse_one_is_the_sum_of_their_references(p
     error = _relative_rms(together, apart)
     print(f"\nsum against parts {error:.2e}")
     assert error < 1e-3
+
+
+def _importance_sampled(model, probe, normals, views, samples, seed):
+    """An independent estimate of the same integral: per pixel, the mean of
+    L(wi) f cos / pdf over ``samples`` stratified, jittered draws of the BRDF's own
+    sampler (bake.brdf's ``sample``), L the probe's bilinear reconstruction
+    (bake.envmap's cube sampler). Unbiased; its noise falls as 1 / sqrt(samples)."""
+    lookup = envmap.get_layout("cube").sampler(probe)
+    frames = reference._frames(normals, None, None)
+    wo = np.einsum("nij,nj->ni", frames, views)
+    side = int(np.sqrt(samples))
+    grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side), indexing="ij"), -1)
+            .reshape(-1, 2) + 0.5) / side
+    rng = np.random.default_rng(seed)
+    out = np.zeros((len(normals), 3))
+    for start in range(0, len(normals), 32):
+        rows = slice(start, start + 32)
+        count = len(wo[rows])
+        u = (grid[None] + (rng.random((count, 1, 2)) - 0.5) / side) % 1.0
+        w = np.broadcast_to(wo[rows][:, None, :], u.shape[:2] + (3,))
+        wi, pdf = model.sample(w, u)
+        cos = np.clip(wi[..., 2], 0.0, None)
+        good = (pdf > 0) & (cos > 0) & np.all(np.isfinite(wi), -1)
+        weight = np.where(good[..., None], model.f(wi, w) * cos[..., None]
+                          / np.where(good, pdf, 1.0)[..., None], 0.0)
+        world = np.einsum("nij,nsi->nsj", frames[rows], np.where(good[..., None], wi, 0.0))
+        world[~good] = (0.0, 0.0, 1.0)
+        out[rows] = np.mean(weight * lookup(world.reshape(-1, 3)).reshape(count, -1, 3), 1)
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spec", ["ggx:roughness=0.1",
+                                  "principled:base_color=0,metallic=0,roughness=0.05,diffuse=0"])
+def test_the_bilinear_reference_equals_an_importance_sampled_integral(probes, spec):
+    """The integral the map benchmarks and tests/bake/test_resolution.py measure against,
+    for lobes narrower than the probe's texels (GGX 0.1 on a 32-px probe of sunset.exr,
+    where the sun is a few texels; a dielectric near-mirror, whose Fresnel puts most of
+    the reflection at grazing views), against an estimate by another route: the
+    BRDF's own importance sampling of the same bilinear reconstruction. Two seeds of
+    4096 samples agree to 0.57% / 0.23% (measured), and render is 0.35% / 0.20% from
+    the first: within 1% plus that noise. The texel sum over a 3x reconstruction, the
+    benchmarks' truth until stop 55, is 4.7% / 91% from it here (it fails this test)."""
+    model = brdf.parse(spec)
+    normals, views, mask = reference.sphere_buffers(20)
+    normals, views = normals[mask], views[mask]
+    probe = probes["sunset.exr"]
+    truth = reference.render(model, probe, "cube", normals, views, reconstruction="bilinear")
+    first = _importance_sampled(model, probe, normals, views, 4096, 1)
+    second = _importance_sampled(model, probe, normals, views, 4096, 2)
+    noise = _relative_rms(first, second)
+    assert noise < 0.01
+    assert _relative_rms(truth, first) < 0.01 + noise
