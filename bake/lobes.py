@@ -245,15 +245,18 @@ def _fit_slice(model, mu, lobes, mode_shape=None):
     *minimum* of its profiles there, so it adds what the fit lacks along the
     profile that lacks least and never overshoots along the others. After
     every addition all weights are refitted (non-negative least squares), so
-    the fit error cannot grow as lobes are added, under the constraint that
-    the lobes integrate to the directional albedo (per channel).
+    the fit error (:func:`sphere_error`) cannot grow as lobes are added, under
+    the constraint that the lobes integrate to the directional albedo (per
+    channel). Until stop 55 the weights were fitted on the 4096 cosine-
+    distributed error samples, which a narrow lobe falls between: a coated
+    metal's second lobe (a near-mirror spike) took 0.39 of its red, and its map
+    went from 7.8% to 27.6% from the converged integral with two lobes.
     """
     wo = _view(mu)
     albedo = model.albedo(wo)
     if not np.all(np.isfinite(albedo)) or albedo.max() <= 0:
         raise BakeError(f"{model.spec}: the BRDF reflects nothing at cos(theta_o) = {mu:.3g}")
     samples = _error_samples()
-    cos_i = np.maximum(samples[:, 2], 1e-6)
     target = model.f(samples, np.broadcast_to(wo, samples.shape))
 
     def slice_fn(wi):
@@ -287,17 +290,59 @@ def _fit_slice(model, mu, lobes, mode_shape=None):
             break
         shapes.append(shape)
         offsets.append(offset)
-        basis = np.stack([np.interp(np.arccos(np.clip(samples @ _centre(wo, o), -1, 1)), GAMMA,
-                                    shp) for shp, o in zip(shapes, offsets, strict=True)], -1)
-        # Least squares in the space of the reported error (f over
-        # cosine-distributed directions), non-negative, summing to the albedo.
-        weights = np.stack([_weights_summing_to(basis / cos_i[:, None], target[:, c],
+        if index == 0:  # one lobe: its weight is the albedo
+            weights = np.asarray(albedo, dtype=np.float64)[None, :]
+            grid = _polar_grid(centre)
+            upper = grid[0][:, 2] > 0.0
+            grid_target = np.zeros((len(grid[0]), 3))
+            grid_target[upper] = model.f(grid[0][upper], np.broadcast_to(
+                wo, grid[0][upper].shape)) * grid[0][upper, 2:3]
+            continue
+        basis = np.stack([np.interp(np.arccos(np.clip(grid[0] @ _centre(wo, o), -1, 1)),
+                                    GAMMA, shp) for shp, o in zip(shapes, offsets, strict=True)],
+                         -1) * grid[1][:, None]
+        # Least squares of the slice s = f cos over the whole sphere (zero below
+        # the horizon) on the polar grid about the first lobe, which resolves
+        # lobes far narrower than the error samples' spacing; non-negative,
+        # summing to the albedo.
+        weights = np.stack([_weights_summing_to(basis, grid_target[:, c] * grid[1],
                                                 albedo[c]) for c in range(3)], -1)
     fitted = [LobeFit(offset=o, weight=w.tolist(), profile=s.tolist())
               for o, w, s in zip(offsets, weights, shapes, strict=True)]
     result = SliceFit(mu=float(mu), albedo=albedo.tolist(), lobes=fitted)
     _measure(result, target @ LUMINANCE, wo, samples)
     return result
+
+
+def _polar_grid(centre):
+    """(directions (G M, 3), sqrt of their solid angles (G M,)) on GAMMA x
+    PROFILE_AZIMUTHS about ``centre`` (the profiles' grid): a quadrature of the whole
+    sphere, dense near the centre (the trapezoid rule in gamma with sin gamma)."""
+    psi = 2.0 * np.pi * np.arange(PROFILE_AZIMUTHS) / PROFILE_AZIMUTHS
+    directions = around_axis(np.broadcast_to(centre, (GAMMA.size, PROFILE_AZIMUTHS, 3)),
+                             np.cos(GAMMA)[:, None], psi[None, :])
+    step = np.gradient(GAMMA)
+    omega = np.sin(GAMMA) * step * (2.0 * np.pi / PROFILE_AZIMUTHS)
+    return directions.reshape(-1, 3), np.sqrt(np.repeat(omega, PROFILE_AZIMUTHS))
+
+
+def sphere_error(model, slice_fit) -> float:
+    """Relative L2 error (over the whole sphere, per solid angle, RGB summed) of a
+    slice's fitted lobes against the slice s = f cos (zero below the horizon), on the
+    polar grid about its first lobe (:func:`_polar_grid`): the error multi-lobe
+    weights minimise. Unlike the reported KM 1999 error (4096 cosine-distributed
+    directions) it resolves lobes narrower than those directions' spacing."""
+    wo = _view(slice_fit.mu)
+    first = slice_fit.lobes[0]
+    directions, root = _polar_grid(_centre(wo, first.offset))
+    upper = directions[:, 2] > 0.0
+    target = np.zeros((len(directions), 3))
+    target[upper] = model.f(directions[upper], np.broadcast_to(
+        wo, directions[upper].shape)) * directions[upper, 2:3]
+    approx = sum(lobe.shape(directions @ _centre(wo, lobe.offset))[:, None]
+                 * np.asarray(lobe.weight)[None, :] for lobe in slice_fit.lobes)
+    return float(np.sqrt(np.sum(((approx - target) * root[:, None]) ** 2)
+                         / np.sum((target * root[:, None]) ** 2)))
 
 
 def _weights_summing_to(a, b, total):

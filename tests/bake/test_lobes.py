@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bake import brdf, lobes
+from bake import brdf, envmap, exr, lobes, prefilter
 from bake.errors import BakeError
 from tests.bake.reference import reference_albedo, sphere_quadrature
 
@@ -36,11 +36,38 @@ def test_each_slice_reproduces_the_directional_albedo(spec):
 @pytest.mark.parametrize("spec", ["sum(lambert:color=0.3; ggx:roughness=0.3)",
                                   "phong:n=40,ks=0.5,kd=0.4", "ward:alpha=0.1"])
 def test_multi_lobe_error_falls_as_lobes_are_added(spec):
-    errors = [np.array([s.relative_rms_error for s in lobes.fit(spec, slices=6, lobes=n).slices])
-              for n in (1, 2, 3)]
-    for fewer, more in zip(errors, errors[1:], strict=False):
-        assert np.all(more <= fewer + 1e-9)
-    assert errors[2][1:-1].mean() < 0.95 * errors[0][1:-1].mean()
+    """The error the weights minimise (lobes.sphere_error) cannot grow with more lobes
+    (each fit contains the previous optimum); the reported KM 1999 error, on its
+    4096 samples, falls on average over the interior slices."""
+    model = brdf.parse(spec)
+    fits = [lobes.fit(spec, slices=6, lobes=n).slices for n in (1, 2, 3)]
+    sphere = [np.array([lobes.sphere_error(model, s) for s in fit]) for fit in fits]
+    for fewer, more in zip(sphere, sphere[1:], strict=False):
+        assert np.all(more <= fewer * (1 + 1e-9) + 1e-12)
+    reported = [np.array([s.relative_rms_error for s in fit]) for fit in fits]
+    assert reported[2][1:-1].mean() < 0.95 * reported[0][1:-1].mean()
+
+
+@pytest.mark.slow
+def test_a_second_lobe_does_not_spoil_a_coated_metal(hdri_dir):
+    """A coated metal (coat 0.05 over a red metal 0.4) is a near-mirror spike over a
+    wide lobe. Its 3D map against the converged integral (a 64-px probe of forest.exr,
+    a 32 px sphere; benchmarks.resolution_curve.truth_of), measured: 7.84% with one
+    lobe, 8.45% with two. Before stop 55 two lobes gave 27.6%: the second lobe's
+    weights were fitted on samples that fall between the spike's directions."""
+    from benchmarks.resolution_curve import relative_rms, sphere_pixels, truth_of
+
+    source, _ = exr.read(hdri_dir / "forest.exr")
+    probe = envmap.convert(source, "latlong", "cube", 64)
+    normals, views = sphere_pixels(32)
+    spec = ("principled:base_color=0.6/0.05/0.05,metallic=1,roughness=0.4,coat_weight=1,"
+            "coat_roughness=0.05,diffuse=0")
+    model = brdf.parse(spec)
+    truth = truth_of(model, probe, normals, views)
+    errors = [relative_rms(prefilter.prefilter(probe, lobes.fit(model, 16, n), "3d", "auto",
+                                               layout="cube", max_size=384)
+                           .shade(normals, views), truth) for n in (1, 2)]
+    assert errors[1] < 1.15 * errors[0], errors
 
 
 def test_peak_offsets_follow_the_brdf():
