@@ -20,6 +20,22 @@ def world_probe(obj, resolution=16):
     obj.glossy.probe_resolution = resolution
 
 
+def isolated_sphere(name, x, face=64):
+    """A smooth UV sphere of radius 1 at (x, 0, 0) that no other object sees in its
+    reflections or shadows, with a World Only probe of ``face`` px faces."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
+                                         location=(x, 0.0, 0.0))
+    bpy.ops.object.shade_smooth()
+    obj = bpy.context.object
+    obj.name = name
+    for ray in ("glossy", "diffuse", "transmission", "shadow"):
+        setattr(obj, f"visible_{ray}", False)
+    obj.glossy.probe_source = "WORLD"
+    obj.glossy.probe_size_mode = "FIXED"
+    obj.glossy.probe_resolution = face
+    return obj
+
+
 def shader_material(name, shader="ShaderNodeBsdfPrincipled"):
     """(material, its tree, the shader node): one shader into a Material Output."""
     material = bpy.data.materials.new(name)

@@ -19,7 +19,7 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _operators import run, validation_scene  # noqa: E402
+from _operators import isolated_sphere, run, validation_scene  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
 scene = validation_scene(hdri, workdir, 128)
@@ -27,16 +27,7 @@ scene = validation_scene(hdri, workdir, 128)
 
 def sphere(name, x):
     """(object, its material's tree, its Metallic BSDF node) of a new sphere."""
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0,
-                                         location=(x, 0.0, 0.0))
-    bpy.ops.object.shade_smooth()
-    obj = bpy.context.object
-    obj.name = name
-    for ray in ("glossy", "diffuse", "transmission", "shadow"):
-        setattr(obj, f"visible_{ray}", False)
-    obj.glossy.probe_source = "WORLD"
-    obj.glossy.probe_size_mode = "FIXED"
-    obj.glossy.probe_resolution = 64
+    obj = isolated_sphere(name, x)
     material = bpy.data.materials.new(name)
     material.use_nodes = True
     tree = material.node_tree
