@@ -9,9 +9,11 @@ where Cycles' formulas allow it (bake.brdf.principled, bake.brdf.cycles);
 everything else is listed, never dropped silently:
 
 - ``ignored``: what the spec leaves out (transmission, subsurface, sheen,
-  emission, alpha, thin film, Oren-Nayar diffuse roughness, normal maps and
-  other links into Normal / Coat Normal / Tangent, transparent or emission
-  shaders inside a mix);
+  alpha, thin film, Oren-Nayar diffuse roughness, normal maps and other
+  links into Normal / Coat Normal / Tangent, transparent shaders inside a
+  mix); emission (a Principled BSDF's, Emission shaders) is not part of the
+  BRDF either, but the attached lookup adds it (glossy_addon.emission), so it
+  is listed under ``approximated``;
 - ``approximated``: inputs driven by links, taken at one value (an Image
   Texture at its mean, an RGB or Value node at its value, anything else at the
   socket's own unlinked value);
@@ -455,7 +457,12 @@ class _Reader:
             raise NodeReadError(f"{self.material.name}: the surface goes through the node "
                                 f"group '{source.name}', which Glossy cannot see into: "
                                 "ungroup it (Ctrl+Alt+G) or choose another BRDF source")
-        if kind in ("ShaderNodeEmission", "ShaderNodeBsdfTransparent", "ShaderNodeHoldout"):
+        if kind == "ShaderNodeEmission":
+            self.derived.approximated.append(
+                f"{source.name}: Emission (no reflection): the lookup adds what it emits "
+                "(glossy_addon.emission)")
+            return None
+        if kind in ("ShaderNodeBsdfTransparent", "ShaderNodeHoldout"):
             self.derived.ignored.append(f"{source.name}: {source.bl_label} (no reflection)")
             return None
         raise NodeReadError(f"{self.material.name}: Glossy cannot read the {source.bl_label} "
@@ -573,7 +580,8 @@ class _Reader:
                 self.linked(node, "Emission Color") or self.linked(node, "Emission Strength")
                 or float(node.inputs["Emission Strength"].default_value) > 0.0
                 and any(node.inputs["Emission Color"].default_value[:3])):
-            d.ignored.append(f"{node.name}: emission")
+            d.approximated.append(f"{node.name}: emission: not baked; the lookup adds it as "
+                                  "Cycles emits it, below the coat (glossy_addon.emission)")
         if self.linked(node, "Alpha") or float(node.inputs["Alpha"].default_value) < 1.0:
             d.ignored.append(f"{node.name}: alpha (transparency)")
         if "Diffuse Roughness" in node.inputs and (

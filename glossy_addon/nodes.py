@@ -214,7 +214,7 @@ def _group_node(b, tree, values):
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
                  runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
-                 roughness_maps=None, map_inputs=None):
+                 roughness_maps=None, map_inputs=None, keep_emission=False):
     """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
     it the active Material Output's surface.
 
@@ -251,6 +251,9 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     bake.colour_response.ColourResponse}, "metallic": socket} (a split colour:
     :func:`_colour_split`; a metallic texture: the maps at Metallic 0 and 1
     mixed by it); ``image`` / ``meta`` are then unused.
+    ``keep_emission``: add what the user's own shaders emit (a Principled BSDF's
+    Emission, Emission shaders added or mixed in; glossy_addon.emission): for a
+    From Material bake, whose truth is the user's material.
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -325,6 +328,11 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
         else:
             value = _add(b, value, diffuse_value)
+    if keep_emission and user_output is not None:
+        from .emission import emission_value
+        emitted = emission_value(b, user_output.inputs["Surface"], spatial.get("coat_tint"))
+        if emitted is not None:  # what the user's shaders emit (glossy_addon.emission)
+            value = _add(b, value, emitted)
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0

@@ -206,6 +206,7 @@ class GLOSSY_PT_material(bpy.types.Panel):
 
     def draw(self, context):
         from .bookkeeping import bake_status
+        from .emission import emission_changed
 
         settings = context.material.glossy
         layout = self.layout
@@ -259,6 +260,9 @@ class GLOSSY_PT_material(bpy.types.Panel):
         obj = context.object
         probe = obj.glossy.probe_path if obj is not None else ""
         layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
+        if emission_changed(context.material):
+            _reason(layout, "The material's emission changed since the last attach: attach "
+                            "again", icon="ERROR")
         if settings.copy_of:
             _reason(layout, f"Glossy's copy of '{settings.copy_of}' for "
                             f"{settings.bake_object or 'this object'}: it reflects that "

@@ -264,6 +264,10 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "BRDF over 8100 stratified pairs (bake.separable.error); -1: none", default=-1.0)
     lamp_set: bpy.props.StringProperty(
         name="Attached Lamps", description="The lamps (names, types) at the last attach (JSON)")
+    emission_set: bpy.props.StringProperty(
+        name="Attached Emission", description="The unlinked emission inputs the lookup holds, "
+        "at the last attach of a From Material lookup (JSON; glossy_addon.emission.values; "
+        "empty: no such attach)")
     lamp_skipped: bpy.props.StringProperty(
         name="Skipped Lamps", description="Lamps the last attach could not convert, with the "
         "reason (JSON)")

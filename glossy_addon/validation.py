@@ -239,6 +239,37 @@ def input_pass_material(material, socket, kind="colour"):
     return copy
 
 
+def emission_pass_material(material):
+    """A new material: ``material``'s own nodes (without Glossy's lookup) with their
+    Material Output showing, as an Emission of strength 1, what its shaders emit
+    (glossy_addon.emission, the term the lookup adds): a render of it is the
+    emitted radiance per pixel, which the NumPy reference adds to the reflection.
+    None where nothing emits."""
+    from .emission import emission_value, emitters
+    from .nodes import _Builder, user_output
+
+    output = user_output(material)
+    if output is None or not emitters(output.inputs["Surface"]):
+        return None
+    copy = user_copy(material, "Glossy emission pass")
+    output = user_output(copy)
+    from .material_source import parts as material_parts
+
+    derived = material_parts(material).derived
+    tint = (derived.spatial if derived is not None else {}).get("coat_tint")
+    coat_tint = None
+    if tint:
+        from .spatial import input_socket
+        socket = input_socket(copy, tint["node"], tint["input"])
+        coat_tint = (socket, tint["mean"], tint["coat"], tint["ior"]) if socket else None
+    emitted = emission_value(_Builder(copy.node_tree), output.inputs["Surface"], coat_tint)
+    emission = copy.node_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    copy.node_tree.links.new(emitted, emission.inputs["Color"])
+    copy.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    return copy
+
+
 def radial_tangents(obj, positions, axis="Z"):
     """(N, 3) world tangents of Blender's radial Tangent node about ``axis`` at world
     points (N, 3) of ``obj``: the generated coordinates' offset from the bounding

@@ -26,11 +26,12 @@ from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled,
 from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
+from ..glossy_addon.emission import values as emission_values
 from ..glossy_addon.lamps import lamp_set, scene_lamps
 from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent, stash_original
 from ..glossy_addon.modal import TimerSteps
-from ..glossy_addon.nodes import build_lookup, load_atlas
+from ..glossy_addon.nodes import build_lookup, load_atlas, user_output
 from ..glossy_addon.paths import output_folder
 from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.spatial import (
@@ -688,8 +689,14 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                              runtime=runtime, tangent=tangent,
                              diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
                              spatial=spatial, roughness_maps=roughness_maps,
-                             map_inputs=map_inputs)
+                             map_inputs=map_inputs,
+                             keep_emission=settings.model == "MATERIAL")
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
+                output = user_output(material)
+                emitted = emission_values(output.inputs["Surface"]) \
+                    if settings.model == "MATERIAL" and output is not None else []
+                settings.emission_set = json.dumps(emitted) \
+                    if settings.model == "MATERIAL" else ""
                 settings.lamp_skipped = json.dumps(skipped) if lamp_terms else ""
                 attached += 1
         except (BakeError, ValueError) as error:

@@ -91,7 +91,7 @@ class GLOSSY_OT_clear(bpy.types.Operator):
             glossy = material.glossy
             glossy.bake_path = glossy.diffuse_path = glossy.lamp_path = glossy.bake_hash = ""
             glossy.roughness_maps = glossy.runtime_path = ""
-            glossy.lamp_set = glossy.lamp_skipped = ""
+            glossy.lamp_set = glossy.lamp_skipped = glossy.emission_set = ""
             glossy.lamp_error = -1.0
             glossy.bake_owner = glossy.bake_probe = glossy.bake_object = ""
             glossy.bake_stamp = glossy.bake_history = ""

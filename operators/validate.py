@@ -167,10 +167,13 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             for kind in ("normal", "roughness"):
                 if glue.spatial_socket(material, kind) is not None:
                     wanted.append((kind, glue.spatial_socket(material, kind)))
+            if material.glossy.model == "MATERIAL":
+                wanted.append(("emission", None))  # what the user's shaders emit
             for kind, socket in wanted:
                 if (material.name, kind) in self._passes:
                     continue
-                shown = glue.input_pass_material(material, socket, kind)
+                shown = glue.emission_pass_material(material) if kind == "emission" else \
+                    glue.input_pass_material(material, socket, kind)
                 if shown is None:
                     continue
                 changes.created(bpy.data.materials, shown)
@@ -238,7 +241,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             glue.configure_cycles(self._changes, scene, INPUT_PASS_SAMPLES, 1)
             name = f"{value}_pass"
             message = {"colour": "the Base Color textures", "normal": "the normal and bump "
-                       "maps", "roughness": "the roughness textures"}[value]
+                       "maps", "roughness": "the roughness textures",
+                       "emission": "what the materials emit"}[value]
         elif kind == "reference":
             return self._reference_steps(value)
         else:
@@ -290,6 +294,12 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             if pixels.any():
                 radiance[pixels] = yield from self._material_reference(
                     obj, material, pixels, probe, layout)
+                if (material.name, "emission") in self._passes:
+                    radiance[pixels] += self._images["emission_pass"][pixels][:, :3]
+                    self._notes.append(
+                        f"{obj.name}: the NumPy reference adds what {material.name} emits "
+                        f"(rendered by Cycles as a pass of the term the lookup adds, "
+                        f"glossy_addon.emission)")
         self._references[obj.name] = radiance
         self._timings[f"reference_{obj.name}"] = time.perf_counter() - start
         return f"NumPy reference of {obj.name}: {int(index_pass.sum())} pixels"

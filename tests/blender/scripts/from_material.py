@@ -3,11 +3,12 @@
     python from_material.py HDRI WORKDIR RESULT.json
 
 A sphere with a user's Principled plastic (MULTI_GGX, the node's default) and
-an Emission shader mixed in at 0 (a listed, ignored input) is captured (World
+an Emission shader mixed in at 0 (a listed input, hidden by the mix) is captured (World
 Only), baked and attached with the BRDF read from its node tree, then
 validated (Cycles renders the user's own material). Then: editing the
 user's Roughness (the user's nodes stay in the attached material) makes the
-bake stale and names the input, editing the ignored emission does not; an
+bake stale and names the input, editing its emission (not baked: the
+lookup adds it, glossy_addon.emission) does not and asks for Attach again; an
 emission-only material and one behind a node group are refused with a
 message and keep their nodes; ``python -m bake brdf --from-blend`` prints
 the same spec.
@@ -23,6 +24,7 @@ import bpy  # noqa: E402
 import glossy  # noqa: E402
 from _operators import run  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
+from glossy.glossy_addon.emission import emission_changed  # noqa: E402
 from glossy.glossy_addon.material_source import changed_inputs, derive  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 
@@ -84,9 +86,13 @@ report = json.loads((workdir / "glossy" / "validation" / "report.json").read_tex
 result["report"] = report
 
 node = material.node_tree.nodes["Principled BSDF"]  # the user's node, beside the lookup
-node.inputs["Emission Strength"].default_value = 2.0  # ignored (emission): not stale
+result["emission_changed_before_edit"] = emission_changed(material)
+node.inputs["Emission Strength"].default_value = 2.0  # not baked (emission): not stale
 result["status_after_ignored_edit"] = bake_status(material.glossy, sphere.glossy.probe_path)
 result["ignored_after_edit"] = derive(material).ignored
+result["emission_after_edit"] = [line for line in derive(material).approximated
+                                 if "emission" in line]
+result["emission_changed_after_edit"] = emission_changed(material)  # attach again
 node.inputs["Emission Strength"].default_value = 0.0
 node.inputs["Roughness"].default_value = 0.5
 result["status_after_roughness_edit"] = bake_status(material.glossy, sphere.glossy.probe_path)

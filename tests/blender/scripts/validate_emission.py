@@ -1,0 +1,91 @@
+"""Emissive materials captured, baked, attached and validated, as a user's script
+drives it (issue: the user's own node tree kept): both spheres selected, each
+operator called once.
+
+    python validate_emission.py HDRI WORKDIR RESULT.json
+
+Two isolated spheres under World Only probes (64 px faces), read From Material:
+"Panel" (a coated gold Principled BSDF, Roughness 0.3, Coat Weight 0.6 and
+Coat Roughness 0.1, whose Emission Color comes from a Checker Texture at
+Emission Strength 0.6: a glowing panel under lacquer) and "Rim" (a Mix Shader of
+a red Emission shader of Strength 0.5 and a Principled plastic, its Fac a Fresnel
+node of IOR 1.45: the glow 1 - F, strongest facing the camera, the plastic
+F). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples. Then the Panel's unlinked
+Emission Strength is edited to 1.5: the panel's check asks for a re-attach.
+Writes the steps, each sphere's figures, the notes, the reader's lines about
+emission, the check before and after the edit and what the attach recorded.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+from _operators import isolated_sphere, run, shader_material, validation_scene  # noqa: E402
+from glossy.glossy_addon.material_source import parts  # noqa: E402
+
+if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures before)
+    from glossy.operators import bake_materials
+
+    plain = bake_materials.build_lookup
+    bake_materials.build_lookup = lambda *a, **k: plain(*a, **{**k, "keep_emission": False})
+scene = validation_scene(hdri, workdir, 128)
+
+panel = isolated_sphere("Panel", -1.25)
+material, tree, node = shader_material("Panel")
+node.inputs["Base Color"].default_value = (0.95, 0.7, 0.3, 1.0)
+node.inputs["Metallic"].default_value = 1.0
+node.inputs["Roughness"].default_value = 0.3
+node.inputs["Coat Weight"].default_value = 0.6
+node.inputs["Coat Roughness"].default_value = 0.1
+checker = tree.nodes.new("ShaderNodeTexChecker")
+checker.inputs["Scale"].default_value = 4.0
+checker.inputs["Color1"].default_value = (0.1, 0.6, 1.0, 1.0)
+checker.inputs["Color2"].default_value = (0.0, 0.0, 0.0, 1.0)
+tree.links.new(checker.outputs["Color"], node.inputs["Emission Color"])
+node.inputs["Emission Strength"].default_value = 0.6
+panel.data.materials.append(material)
+
+rim = isolated_sphere("Rim", 1.25)
+material, tree, plastic = shader_material("Rim")
+plastic.inputs["Base Color"].default_value = (0.2, 0.25, 0.3, 1.0)
+plastic.inputs["Roughness"].default_value = 0.25
+glow = tree.nodes.new("ShaderNodeEmission")
+glow.inputs["Color"].default_value = (1.0, 0.1, 0.05, 1.0)
+glow.inputs["Strength"].default_value = 0.5
+mix = tree.nodes.new("ShaderNodeMixShader")
+fresnel = tree.nodes.new("ShaderNodeFresnel")
+fresnel.inputs["IOR"].default_value = 1.45
+output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+tree.links.new(fresnel.outputs["Fac"], mix.inputs["Fac"])
+tree.links.new(glow.outputs[0], mix.inputs[1])
+tree.links.new(plastic.outputs[0], mix.inputs[2])
+tree.links.new(mix.outputs[0], output.inputs["Surface"])
+rim.data.materials.append(material)
+
+bpy.ops.object.select_all(action="DESELECT")
+for obj in (panel, rim):
+    obj.select_set(True)
+bpy.context.view_layer.objects.active = panel
+steps = {name: run(operator) for name, operator in (
+    ("capture", bpy.ops.glossy.capture_probes), ("bake", bpy.ops.glossy.bake_materials),
+    ("attach", bpy.ops.glossy.attach_materials), ("validate", bpy.ops.glossy.validate))}
+report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
+
+# An edit of the unlinked strength: the panel's check asks for a re-attach.
+from glossy.glossy_addon.emission import emission_changed  # noqa: E402
+
+material = panel.data.materials[0]
+changed_before = emission_changed(material)
+material.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 1.5
+changed_after = emission_changed(material)
+result_path.write_text(json.dumps({
+    "steps": steps, "notes": report["notes"],
+    "figures": {entry["object"]: entry["figures"] for entry in report["objects"]},
+    "lines": {obj.name: [line for line in parts(obj.data.materials[0]).derived.approximated
+                         + parts(obj.data.materials[0]).derived.ignored
+                         if "mission" in line] for obj in (panel, rim)},
+    "changed": [changed_before, changed_after],
+    "emission_set": json.loads(material.glossy.emission_set)}))
