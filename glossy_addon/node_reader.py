@@ -127,6 +127,35 @@ class _Reader:
     def _image_mean(self, node, output, colour):
         return self._image_values(node, output, colour).mean(axis=0)
 
+    def _image_channel(self, socket):
+        """(Image Texture node, its output, channel) where ``socket`` is fed by one
+        channel of an image's colour through a Separate Color (RGB mode) or
+        Separate XYZ node, as glTF imports pack roughness and metallic (G and B
+        of one image); channel None where the image feeds it directly; None for
+        anything else (or an image without pixels)."""
+        source, output = self._source(socket)
+        channel = None
+        if source is not None and (source.bl_idname == "ShaderNodeSeparateXYZ" or
+                                   source.bl_idname == "ShaderNodeSeparateColor"
+                                   and source.mode == "RGB"):
+            channel = {"Red": 0, "Green": 1, "Blue": 2, "X": 0, "Y": 1, "Z": 2}.get(
+                output.name)
+            source, output = self._source(source.inputs[0])
+            if channel is None or output is None or output.name != "Color":
+                return None
+        if source is None or source.bl_idname != "ShaderNodeTexImage" or \
+                source.image is None or not len(source.image.pixels):
+            return None
+        return source, output, channel
+
+    def _channel_values(self, found, colour):
+        """Per-pixel values (N, 3) or (N,) of :meth:`_image_channel`'s ``found``."""
+        node, output, channel = found
+        if channel is None:
+            return self._image_values(node, output, colour)
+        values = self._image_values(node, output, True)[:, channel]
+        return np.repeat(values[:, None], 3, axis=1) if colour else values
+
     def value(self, node, name, label=None):
         """The value of input ``name`` of ``node`` (float or (3,) array), noting links."""
         socket = node.inputs[name]
@@ -144,14 +173,16 @@ class _Reader:
             else:
                 value = float(np.dot(raw[:3], LUMINANCE)) if hasattr(raw, "__len__") \
                     else float(raw)
-        elif source.bl_idname == "ShaderNodeTexImage" and source.image is not None \
-                and len(source.image.pixels):
-            values = self._image_values(source, output, colour)
+        elif self._image_channel(socket) is not None:
+            found = self._image_channel(socket)
+            values = self._channel_values(found, colour)
             value = values.mean(axis=0)
             plan = self.per_pixel.get((node.name, name))
+            what = f"image '{found[0].image.name}'" + (
+                "" if found[2] is None else f" (its {'RGB'[found[2]]} channel)")
             if plan is None:
                 self.derived.approximated.append(
-                    f"{label}: image '{source.image.name}' taken at its mean ({_fmt(value)}); "
+                    f"{label}: {what} taken at its mean ({_fmt(value)}); "
                     f"the texture stays in the material but is not applied per pixel")
             elif plan["kind"] == "roughness":
                 low, high = np.percentile(values, [1.0, 99.0])
@@ -255,10 +286,8 @@ class _Reader:
         return "Base Color", "glossy", False, {"glossy"}
 
     def _plan_roughness(self, node):
-        source = self._source(node.inputs["Roughness"])[0] if "Roughness" in node.inputs \
-            else None
-        if source is not None and source.bl_idname == "ShaderNodeTexImage" and \
-                source.image is not None and len(source.image.pixels):
+        if "Roughness" in node.inputs and \
+                self._image_channel(node.inputs["Roughness"]) is not None:
             self.per_pixel[(node.name, "Roughness")] = {"kind": "roughness", "node": node.name,
                                                         "input": "Roughness"}
 

@@ -72,3 +72,24 @@ def test_colour_splits_where_bake_colour_response_applies(plans):
     assert coat_tint["maps"] == [[None, "glossy"], [None, "coat"]]
     assert coat_tint["spatial"]["coat_tint"]["coat"] == 1.0
     assert coat_tint["spatial"]["coat_tint"]["mean"] == pytest.approx([0.4] * 3, abs=1e-6)
+
+
+def test_a_gltf_packed_image_drives_roughness_and_metallic_through_its_channels(plans):
+    # Blender's glTF importer routes one image's G and B channels (roughness,
+    # metallic) through a Separate Color node. Until stop 56 the reader followed
+    # an image linked straight into Roughness only: the packed roughness was taken
+    # at the socket's unlinked 0.5 (a glTF-style sphere in courtyard.exr: 45.2%
+    # from Cycles, now 14.2%, native 17.6%; README, "Materials as users have them").
+    packed = plans["glTF Packed"]
+    # The image holds 8-bit values: within 1/255 of those written.
+    roughness = packed["spatial"]["roughness"]
+    assert roughness["low"] == pytest.approx(0.3, abs=1 / 255)  # the G channel's range
+    assert roughness["high"] == pytest.approx(0.5, abs=1 / 255)
+    assert packed["spatial"]["metallic"]["mean"] == pytest.approx(0.75, abs=1e-6)  # B's mean
+    baked = float(packed["spec"].split("roughness=")[1].split(",")[0])
+    assert baked == pytest.approx(0.4, abs=1 / 255)  # the baked spec at G's mean
+    knots = sorted({r for r, _ in packed["maps"] if r is not None})
+    assert knots[0] == pytest.approx(0.3, abs=1 / 255)
+    assert knots[-1] == pytest.approx(0.5, abs=1 / 255)
+    assert any("Roughness" in line and "blended per pixel" in line
+               for line in packed["approximated"])

@@ -169,8 +169,28 @@ def coat_tint_texture():
     return t.finish(plastic)
 
 
+#: A glTF importer's packed image: occlusion in R, roughness in G (0.3 / 0.5 on
+#: alternate columns), metallic in B (0 on the first two rows, 1 below).
+PACKED = image("packed", np.stack([np.ones((8, 8)), np.tile([0.3, 0.5] * 4, (8, 1)),
+                                   np.repeat([0.0] * 2 + [1.0] * 6, 8).reshape(8, 8)], -1))
+
+
+def gltf_packed():
+    """As Blender's glTF importer builds a metallic-roughness material: one image's G
+    and B channels into Roughness and Metallic through a Separate Color node."""
+    t = Tree("glTF Packed")
+    principled = t.node("ShaderNodeBsdfPrincipled")
+    packed = t.tree.nodes.new("ShaderNodeTexImage")
+    packed.image = PACKED
+    separate = t.tree.nodes.new("ShaderNodeSeparateColor")
+    t.tree.links.new(packed.outputs["Color"], separate.inputs["Color"])
+    t.tree.links.new(separate.outputs["Green"], principled.inputs["Roughness"])
+    t.tree.links.new(separate.outputs["Blue"], principled.inputs["Metallic"])
+    return t.finish(principled)
+
+
 result = {}
-for build in (coat_tint_texture, multiscatter_glossy, mix_diffuse_glossy, two_diffuse,
+for build in (gltf_packed, coat_tint_texture, multiscatter_glossy, mix_diffuse_glossy, two_diffuse,
               add_rough_glossy, glossy_over_plastic, coated_metal, tinted_plastic,
               metal_colour_and_tint):
     material = build()
