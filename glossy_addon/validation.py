@@ -107,17 +107,20 @@ def truth_material(material, tangent=None):
 
 
 def colour_plan(material, spec=None):
-    """(specs, combine, socket) where the NumPy reference can follow a Base Color
-    texture per pixel exactly, else None: a From Material Principled BSDF alone
-    whose inputs applied per pixel are Base Color and, at most, a normal map and a
-    roughness texture (``spec``: the BSDF at one roughness; default the read
-    one). specs: the bake.brdf specs
-    to integrate; combine(values, colour, mu): the reflection at each pixel from
-    their integrals (a list of (N, 3)), the pixel's colour (N, 3) and view cosine
-    (N,); socket: (node name, input name) of the colour. A metal (Metallic 1)
-    follows bake.colour_response (integrals at base colours 0 and 1, the coat
-    alone, the energy term), a dielectric (Metallic 0) is affine in its base
-    colour (integrals at 0 and 1); a partly metallic one is None."""
+    """(specs, combine, sockets) where the NumPy reference can follow a Base Color
+    texture, a Metallic texture or both per pixel exactly, else None: a From
+    Material Principled BSDF alone whose inputs applied per pixel are those and,
+    at most, a normal map and a roughness texture (``spec``: the BSDF at one
+    roughness; default the read one). specs: the bake.brdf specs to integrate;
+    combine(values, colour, mu, metallic): the reflection at each pixel from their
+    integrals (a list of (N, 3)), the pixel's colour (N, 3) (None: no colour
+    texture), view cosine (N,) and metallic (N,) (None: no metallic texture);
+    sockets: {"colour": (node name, input name) or None, "metallic": the same}.
+    A metal (Metallic 1) follows bake.colour_response (integrals at base
+    colours 0 and 1, the coat alone, the energy term), a dielectric (Metallic 0)
+    is affine in its base colour (integrals at 0 and 1), and the Principled BSDF
+    is affine in Metallic (integrals at Metallic 0 and 1, mixed per pixel);
+    a partly metallic one without a metallic texture is None."""
     if material.glossy.model != "MATERIAL":
         return None
     from ..bake.brdf.principled import Principled
@@ -126,36 +129,61 @@ def colour_plan(material, spec=None):
 
     derived = material_parts(material).derived
     spatial = derived.spatial if derived is not None else {}
-    entry = spatial.get("colour")
-    if entry is None or not set(spatial) <= {"colour", "normal", "roughness"} or \
-            entry.get("input") != "Base Color":
+    entry, metal_entry = spatial.get("colour"), spatial.get("metallic")
+    if entry is None and metal_entry is None or \
+            not set(spatial) <= {"colour", "metallic", "normal", "roughness"} or \
+            entry is not None and entry.get("input") != "Base Color":
         return None
     model = brdf.parse(spec or derived.spec)
     if not isinstance(model, Principled):
         return None
-    socket = (entry["node"], entry["input"])
-    if model.metallic == 1.0:
-        found = response(model, "base_color")
+
+    def at_metallic(metallic):
+        """(specs, combine(values, colour, mu)) of the model at this Metallic."""
+        part = Principled(**{**model.params, "metallic": metallic})
+        if entry is None:
+            return [part.spec], lambda values, colour, mu: values[0]
+        if metallic == 1.0:
+            found = response(part, "base_color")
+            if found is None:
+                return None
+            specs = [spec for spec in (found.low, found.high, found.coat) if spec is not None]
+
+            def combine(values, colour, mu):
+                values = list(values)
+                low = values.pop(0) if found.low is not None else None
+                high = values.pop(0)
+                coat = values.pop(0) if found.coat is not None else None
+                return found.combine(low, high, colour, mu, coat)
+
+            return specs, combine
+        if metallic == 0.0:
+            specs = [Principled(**{**part.params, "base_color": value}).spec
+                     for value in (0.0, 1.0)]
+            return specs, lambda values, colour, mu: values[0] + np.clip(
+                colour, 0.0, 1.0) * (values[1] - values[0])
+        return None
+
+    sockets = {"colour": (entry["node"], entry["input"]) if entry else None,
+               "metallic": (metal_entry["node"], metal_entry["input"]) if metal_entry
+               else None}
+    if metal_entry is None:
+        found = at_metallic(model.metallic) if model.metallic in (0.0, 1.0) else None
         if found is None:
             return None
-        specs = [spec for spec in (found.low, found.high, found.coat) if spec is not None]
+        return found[0], lambda values, colour, mu, metallic: found[1](values, colour,
+                                                                       mu), sockets
+    dielectric, metal = at_metallic(0.0), at_metallic(1.0)
+    if dielectric is None or metal is None:
+        return None
+    count = len(dielectric[0])
 
-        def combine(values, colour, mu):
-            values = list(values)
-            low = values.pop(0) if found.low is not None else None
-            high = values.pop(0)
-            coat = values.pop(0) if found.coat is not None else None
-            return found.combine(low, high, colour, mu, coat)
+    def mixed(values, colour, mu, metallic):
+        m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)[:, None]
+        return (1.0 - m) * dielectric[1](values[:count], colour, mu) + \
+            m * metal[1](values[count:], colour, mu)
 
-        return specs, combine, socket
-    if model.metallic == 0.0:
-        specs = [Principled(**{**model.params, "base_color": value}).spec for value in (0.0, 1.0)]
-
-        def affine(values, colour, mu):
-            return values[0] + np.clip(colour, 0.0, 1.0) * (values[1] - values[0])
-
-        return specs, affine, socket
-    return None
+    return dielectric[0] + metal[0], mixed, sockets
 
 
 #: Neighbouring roughness knots of the reference's per-pixel roughness are at most

@@ -44,7 +44,8 @@ INPUT_PASS_SAMPLES = 16
 class _Pixels:
     """One material's pixels as the reference shades them: world positions, unit
     normals and views (P, 3), tangents (P, 3) or None, the Base Color pass's
-    colours (P, 3) or None, the lamps and their visibility (P, lamps) or None."""
+    colours (P, 3) or None, the lamps and their visibility (P, lamps) or None,
+    the Metallic pass's values (P,) or None."""
 
     positions: np.ndarray
     normals: np.ndarray
@@ -53,6 +54,7 @@ class _Pixels:
     colour: np.ndarray | None = None
     lamps: list = field(default_factory=list)
     visibility: np.ndarray | None = None
+    metallic: np.ndarray | None = None
 
     @property
     def cos_view(self):
@@ -64,7 +66,7 @@ class _Pixels:
             return None if array is None else array[use]
         return _Pixels(self.positions[use], self.normals[use], self.views[use],
                        pick(self.tangents), pick(self.colour), self.lamps,
-                       pick(self.visibility))
+                       pick(self.visibility), pick(self.metallic))
 
 
 def _glossy_materials(obj):
@@ -163,7 +165,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         for material in {m.name: m for _, materials in self._targets
                          for m in materials}.values():
             plan = glue.colour_plan(material)
-            wanted = [("colour", plan[2])] if plan is not None else []
+            wanted = [(kind, socket) for kind, socket in plan[2].items()
+                      if socket is not None] if plan is not None else []
+            planned = {kind for kind, _ in wanted}
             for kind in ("normal", "roughness"):
                 if glue.spatial_socket(material, kind) is not None:
                     wanted.append((kind, glue.spatial_socket(material, kind)))
@@ -178,8 +182,9 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                     continue
                 changes.created(bpy.data.materials, shown)
                 self._passes[(material.name, kind)] = shown
-                if kind == "colour":
-                    self._colour_plans[material.name] = plan
+            if plan is not None and all((material.name, kind) in self._passes
+                                        for kind in planned):
+                self._colour_plans[material.name] = plan
         for obj, materials in self._targets:
             for material in materials:
                 if material.name in self._truth:
@@ -242,7 +247,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             name = f"{value}_pass"
             message = {"colour": "the Base Color textures", "normal": "the normal and bump "
                        "maps", "roughness": "the roughness textures",
-                       "emission": "what the materials emit"}[value]
+                       "emission": "what the materials emit",
+                       "metallic": "the metallic textures"}[value]
         elif kind == "reference":
             return self._reference_steps(value)
         else:
@@ -324,12 +330,21 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                                f"normal from the material's normal or bump map (a Cycles "
                                f"emission pass of it)")
         if material.name in self._colour_plans:
-            socket = self._colour_plans[material.name][2]
-            at.colour = self._images["colour_pass"][pixels][:, :3]
-            self._notes.append(
-                f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
-                f"pixel (its value rendered by Cycles as an emission pass; the "
-                f"reflection from integrals at colours 0 and 1, bake.colour_response)")
+            sockets = self._colour_plans[material.name][2]
+            if sockets["colour"] is not None:
+                socket = sockets["colour"]
+                at.colour = self._images["colour_pass"][pixels][:, :3]
+                self._notes.append(
+                    f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
+                    f"pixel (its value rendered by Cycles as an emission pass; the "
+                    f"reflection from integrals at colours 0 and 1, bake.colour_response)")
+            if sockets["metallic"] is not None:
+                socket = sockets["metallic"]
+                at.metallic = self._images["metallic_pass"][pixels][:, 0]
+                self._notes.append(
+                    f"{obj.name}: the NumPy reference follows {socket[0]}: {socket[1]} per "
+                    f"pixel (its value rendered by Cycles as an emission pass; integrals at "
+                    f"Metallic 0 and 1 mixed by it: the Principled BSDF is affine in it)")
         at.lamps, at.visibility = self._lamps(obj, at.positions, normals)
         if (material.name, "roughness") not in self._passes:
             return (yield from self._shade(obj, material, None, at, probe, layout))
@@ -353,13 +368,14 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         """(P, 3) the reference at the pixels ``at`` (a _Pixels) of ``material`` (its
         read BSDF, or ``spec``: the same at one roughness), its Base Color followed
         per pixel where a colour pass is there (a generator)."""
-        plan = glue.colour_plan(material, spec) if at.colour is not None else None
+        plan = glue.colour_plan(material, spec) \
+            if at.colour is not None or at.metallic is not None else None
         if plan is not None:
             values = []
             for part_spec in plan[0]:
                 values.append((yield from self._integrate(obj, brdf.parse(part_spec), probe,
                                                           layout, at)))
-            return plan[1](values, at.colour, at.cos_view)
+            return plan[1](values, at.colour, at.cos_view, at.metallic)
         fresnel_weight = fresnel.dielectric(at.cos_view, material.glossy.fresnel_ior) \
             if material.glossy.fresnel_ior > 1.0 else None
         parts = [(brdf.parse(spec), "one")] if spec else glue.reference_parts(material)

@@ -10,7 +10,9 @@ Coat Roughness 0.1, whose Emission Color comes from a Checker Texture at
 Emission Strength 0.6: a glowing panel under lacquer) and "Rim" (a Mix Shader of
 a red Emission shader of Strength 0.5 and a Principled plastic, its Fac a Fresnel
 node of IOR 1.45: the glow 1 - F, strongest facing the camera, the plastic
-F). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples. Then the Panel's unlinked
+F). A third, "Packed", is a metallic-roughness material as Blender's glTF
+importer builds it (one image's G and B channels into Roughness and Metallic
+through a Separate Color node). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples. Then the Panel's unlinked
 Emission Strength is edited to 1.5: the panel's check asks for a re-attach.
 Writes the steps, each sphere's figures, the notes, the reader's lines about
 emission, the check before and after the edit and what the attach recorded.
@@ -23,6 +25,7 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+import numpy as np  # noqa: E402
 from _operators import isolated_sphere, run, shader_material, validation_scene  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
@@ -65,8 +68,31 @@ tree.links.new(plastic.outputs[0], mix.inputs[2])
 tree.links.new(mix.outputs[0], output.inputs["Surface"])
 rim.data.materials.append(material)
 
+# "Packed": a metallic-roughness material as Blender's glTF importer builds it:
+# one Non-Color image's G (roughness 0.25 / 0.55 in stripes) and B (metallic 0 /
+# 1 in bands) through a Separate Color node, a grey-blue Base Color.
+packed = isolated_sphere("Packed", 3.75)
+material, tree, node = shader_material("Packed")
+node.inputs["Base Color"].default_value = (0.6, 0.65, 0.8, 1.0)
+size = 64
+column, row = np.meshgrid(np.arange(size), np.arange(size))
+pixels = np.ones((size, size, 4), np.float32)
+pixels[..., 1] = np.where((column // 8) % 2 == 0, 0.25, 0.55)
+pixels[..., 2] = np.where((row // 16) % 2 == 0, 0.0, 1.0)
+picture = bpy.data.images.new("packed", size, size, alpha=True, float_buffer=True)
+picture.colorspace_settings.name = "Non-Color"
+picture.pixels.foreach_set(pixels.ravel())
+picture.pack()
+texture = tree.nodes.new("ShaderNodeTexImage")
+texture.image = picture
+separate = tree.nodes.new("ShaderNodeSeparateColor")
+tree.links.new(texture.outputs["Color"], separate.inputs["Color"])
+tree.links.new(separate.outputs["Green"], node.inputs["Roughness"])
+tree.links.new(separate.outputs["Blue"], node.inputs["Metallic"])
+packed.data.materials.append(material)
+
 bpy.ops.object.select_all(action="DESELECT")
-for obj in (panel, rim):
+for obj in (panel, rim, packed):
     obj.select_set(True)
 bpy.context.view_layer.objects.active = panel
 steps = {name: run(operator) for name, operator in (
@@ -87,5 +113,6 @@ result_path.write_text(json.dumps({
     "lines": {obj.name: [line for line in parts(obj.data.materials[0]).derived.approximated
                          + parts(obj.data.materials[0]).derived.ignored
                          if "mission" in line] for obj in (panel, rim)},
+    "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
     "changed": [changed_before, changed_after],
     "emission_set": json.loads(material.glossy.emission_set)}))
