@@ -1,10 +1,10 @@
-"""Emissive materials captured, baked, attached and validated, as a user's script
-drives it (issue: the user's own node tree kept): both spheres selected, each
-operator called once.
+"""Emissive and glTF-style materials captured, baked, attached and validated, as a
+user's script drives it (the user's own node tree kept): all spheres selected,
+each operator called once.
 
     python validate_emission.py HDRI WORKDIR RESULT.json
 
-Two isolated spheres under World Only probes (64 px faces), read From Material:
+Isolated spheres under World Only probes (64 px faces), read From Material:
 "Panel" (a coated gold Principled BSDF, Roughness 0.3, Coat Weight 0.6 and
 Coat Roughness 0.1, whose Emission Color comes from a Checker Texture at
 Emission Strength 0.6: a glowing panel under lacquer) and "Rim" (a Mix Shader of
@@ -13,8 +13,8 @@ node of IOR 1.45: the glow 1 - F, strongest facing the camera, the plastic
 F). A third, "Packed", is a metallic-roughness material as Blender's glTF
 importer builds it (one image's G and B channels into Roughness and Metallic
 through a Separate Color node). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples.
-Then the Panel's unlinked Emission Strength is edited to 1.5: the panel's check asks for a re-attach.
-Writes the steps, each sphere's figures, the notes, the reader's lines about
+Then the Panel's unlinked Emission Strength is edited to 1.5: the panel's
+check asks for a re-attach. Writes the steps, each sphere's figures, the notes, the reader's lines about
 emission, the check before and after the edit and what the attach recorded.
 """
 
