@@ -14,8 +14,9 @@ F). A third, "Packed", is a metallic-roughness material as Blender's glTF
 importer builds it (one image's G and B channels into Roughness and Metallic
 through a Separate Color node). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples.
 Then the Panel's unlinked Emission Strength is edited to 1.5: the panel's
-check asks for a re-attach. Writes the steps, each sphere's figures, the notes, the reader's lines about
-emission, the check before and after the edit and what the attach recorded.
+check asks for a re-attach. Writes the steps, each sphere's figures, the
+notes, the reader's lines about emission, the check before and after the edit
+and what the attach recorded.
 """
 
 import json
