@@ -13,6 +13,23 @@ def run(operator, **kwargs):
         return ["CANCELLED"], str(error).strip()
 
 
+def whole_pipeline(objects, workdir):
+    """(steps, validation report): ``objects`` selected (the first active), then one
+    call each of Capture Probes, Bake Materials, Attach Lookups and Validate, as a
+    user's script drives a scene."""
+    import json
+
+    bpy.ops.object.select_all(action="DESELECT")
+    for obj in objects:
+        obj.select_set(True)
+    bpy.context.view_layer.objects.active = objects[0]
+    steps = {name: run(operator) for name, operator in (
+        ("capture", bpy.ops.glossy.capture_probes), ("bake", bpy.ops.glossy.bake_materials),
+        ("attach", bpy.ops.glossy.attach_materials), ("validate", bpy.ops.glossy.validate))}
+    report = (workdir / "glossy" / "validation" / "report.json").read_text()
+    return steps, json.loads(report)
+
+
 def world_probe(obj, resolution=16):
     """Capture ``obj``'s probe from the world image alone, at a fixed face size."""
     obj.glossy.probe_source = "WORLD"

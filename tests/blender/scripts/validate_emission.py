@@ -27,7 +27,12 @@ hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-from _operators import isolated_sphere, run, shader_material, validation_scene  # noqa: E402
+from _operators import (  # noqa: E402
+    isolated_sphere,
+    shader_material,
+    validation_scene,
+    whole_pipeline,
+)
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
 if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures before)
@@ -92,14 +97,7 @@ tree.links.new(separate.outputs["Green"], node.inputs["Roughness"])
 tree.links.new(separate.outputs["Blue"], node.inputs["Metallic"])
 packed.data.materials.append(material)
 
-bpy.ops.object.select_all(action="DESELECT")
-for obj in (panel, rim, packed):
-    obj.select_set(True)
-bpy.context.view_layer.objects.active = panel
-steps = {name: run(operator) for name, operator in (
-    ("capture", bpy.ops.glossy.capture_probes), ("bake", bpy.ops.glossy.bake_materials),
-    ("attach", bpy.ops.glossy.attach_materials), ("validate", bpy.ops.glossy.validate))}
-report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
+steps, report = whole_pipeline([panel, rim, packed], workdir)
 
 # An edit of the unlinked strength: the panel's check asks for a re-attach.
 from glossy.glossy_addon.emission import emission_changed  # noqa: E402

@@ -19,7 +19,7 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _operators import isolated_sphere, run, validation_scene  # noqa: E402
+from _operators import isolated_sphere, validation_scene, whole_pipeline  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
 scene = validation_scene(hdri, workdir, 128)
@@ -52,14 +52,7 @@ node.inputs["Roughness"].default_value = 0.25
 node.inputs["IOR"].default_value = (0.143, 0.374, 1.442)
 node.inputs["Extinction"].default_value = (3.983, 2.385, 1.603)
 
-bpy.ops.object.select_all(action="DESELECT")
-for obj in (f82, gold):
-    obj.select_set(True)
-bpy.context.view_layer.objects.active = f82
-steps = {name: run(operator) for name, operator in (
-    ("capture", bpy.ops.glossy.capture_probes), ("bake", bpy.ops.glossy.bake_materials),
-    ("attach", bpy.ops.glossy.attach_materials), ("validate", bpy.ops.glossy.validate))}
-report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
+steps, report = whole_pipeline([f82, gold], workdir)
 result_path.write_text(json.dumps({
     "steps": steps, "notes": report["notes"],
     "figures": {entry["object"]: entry["figures"] for entry in report["objects"]},
