@@ -9,7 +9,8 @@ where Cycles' formulas allow it (bake.brdf.principled, bake.brdf.cycles);
 everything else is listed, never dropped silently:
 
 - ``ignored``: what the spec leaves out (transmission, subsurface, sheen,
-  alpha, thin film, Oren-Nayar diffuse roughness, normal maps and other
+  alpha (but a lone Principled BSDF's, which the lookup applies:
+  glossy_addon.transparency), thin film, Oren-Nayar diffuse roughness, normal maps and other
   links into Normal / Coat Normal / Tangent, transparent shaders inside a
   mix); emission (a Principled BSDF's, Emission shaders) is not part of the
   BRDF either, but the attached lookup adds it (glossy_addon.emission), so it
@@ -689,5 +690,13 @@ def read_material(material) -> Derived:
         raise NodeReadError(f"{material.name}: {error}") from None
     reader.verify_split(model)
     reader.spatial_notes()
+    from .transparency import alpha_input
+    if alpha_input(output.inputs["Surface"]) is not None:  # the lookup applies it
+        derived = reader.derived
+        for line in [line for line in derived.ignored if line.endswith(": alpha (transparency)")]:
+            derived.ignored.remove(line)
+            derived.approximated.append(
+                f"{line.rsplit(':', 1)[0]}: Alpha: not baked; the lookup mixes a Transparent "
+                "BSDF in by it, as Cycles does (glossy_addon.transparency)")
     reader.derived.spec = model.spec
     return reader.derived

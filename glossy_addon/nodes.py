@@ -214,7 +214,7 @@ def _group_node(b, tree, values):
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
                  runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
-                 roughness_maps=None, map_inputs=None, keep_emission=False):
+                 roughness_maps=None, map_inputs=None, from_material=False):
     """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
     it the active Material Output's surface.
 
@@ -251,9 +251,10 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     bake.colour_response.ColourResponse}, "metallic": socket} (a split colour:
     :func:`_colour_split`; a metallic texture: the maps at Metallic 0 and 1
     mixed by it); ``image`` / ``meta`` are then unused.
-    ``keep_emission``: add what the user's own shaders emit (a Principled BSDF's
-    Emission, Emission shaders added or mixed in; glossy_addon.emission): for a
-    From Material bake, whose truth is the user's material.
+    ``from_material``: a From Material bake, whose truth is the user's material:
+    add what the user's own shaders emit (a Principled BSDF's Emission,
+    Emission shaders added or mixed in; glossy_addon.emission) and mix in a
+    Transparent BSDF by its Principled BSDF's Alpha (glossy_addon.transparency).
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -328,7 +329,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
         else:
             value = _add(b, value, diffuse_value)
-    if keep_emission and user_output is not None:
+    if from_material and user_output is not None:
         from .emission import emission_value
         emitted = emission_value(b, user_output.inputs["Surface"], spatial.get("coat_tint"))
         if emitted is not None:  # what the user's shaders emit (glossy_addon.emission)
@@ -336,9 +337,21 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     emission = b._place(tree.nodes.new("ShaderNodeEmission"))
     b.link(value, emission.inputs["Color"])
     emission.inputs["Strength"].default_value = 1.0
+    surface = emission.outputs[0]
+    alpha = None
+    if from_material and user_output is not None:
+        from .transparency import alpha_input
+        alpha = alpha_input(user_output.inputs["Surface"])
+    if alpha is not None:  # Cycles: Transparent BSDF x (1 - Alpha), the rest x Alpha
+        transparent = b._place(tree.nodes.new("ShaderNodeBsdfTransparent"))
+        mix = b._place(tree.nodes.new("ShaderNodeMixShader"))
+        b.link(alpha, mix.inputs["Fac"])
+        b.link(transparent.outputs[0], mix.inputs[1])
+        b.link(surface, mix.inputs[2])
+        surface = mix.outputs[0]
     output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
     output.target = "ALL"
-    b.link(emission.outputs[0], output.inputs["Surface"])
+    b.link(surface, output.inputs["Surface"])
     _finish(tree, user_nodes, output, spatial.get("normal"))
     material["glossy_lookup_version"] = GROUP_VERSION
     return material

@@ -690,7 +690,7 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                              diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
                              spatial=spatial, roughness_maps=roughness_maps,
                              map_inputs=map_inputs,
-                             keep_emission=settings.model == "MATERIAL")
+                             from_material=settings.model == "MATERIAL")
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 output = user_output(material)
                 emitted = emission_values(output.inputs["Surface"]) \

@@ -69,6 +69,15 @@ class _Pixels:
                        pick(self.visibility), pick(self.metallic))
 
 
+def _transparent(material):
+    """Whether ``material``'s lookup mixes in a Transparent BSDF by the user's Alpha."""
+    from ..glossy_addon.nodes import user_output
+    from ..glossy_addon.transparency import alpha_input
+
+    output = user_output(material) if material.glossy.model == "MATERIAL" else None
+    return output is not None and alpha_input(output.inputs["Surface"]) is not None
+
+
 def _glossy_materials(obj):
     out = []
     for slot in obj.material_slots:
@@ -300,6 +309,11 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             if pixels.any():
                 radiance[pixels] = yield from self._material_reference(
                     obj, material, pixels, probe, layout)
+                if _transparent(material):
+                    self._notes.append(
+                        f"{obj.name}: the NumPy reference is opaque: {material.name}'s Alpha "
+                        f"(which the lookup applies, glossy_addon.transparency) is not in it, "
+                        f"so its figures include what shows through")
                 if (material.name, "emission") in self._passes:
                     radiance[pixels] += self._images["emission_pass"][pixels][:, :3]
                     self._notes.append(

@@ -12,7 +12,8 @@ a red Emission shader of Strength 0.5 and a Principled plastic, its Fac a Fresne
 node of IOR 1.45: the glow 1 - F, strongest facing the camera, the plastic
 F). A third, "Packed", is a metallic-roughness material as Blender's glTF
 importer builds it (one image's G and B channels into Roughness and Metallic
-through a Separate Color node). Cycles 2 x 256 spp, 128 px, EEVEE 4 samples.
+through a Separate Color node); a fourth, "Cutout", a metal whose Alpha is a
+checker mask. Cycles 2 x 256 spp, 128 px, EEVEE 4 samples.
 Then the Panel's unlinked Emission Strength is edited to 1.5: the panel's
 check asks for a re-attach. Writes the steps, each sphere's figures, the
 notes, the reader's lines about emission, the check before and after the edit
@@ -39,7 +40,7 @@ if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures 
     from glossy.operators import bake_materials
 
     plain = bake_materials.build_lookup
-    bake_materials.build_lookup = lambda *a, **k: plain(*a, **{**k, "keep_emission": False})
+    bake_materials.build_lookup = lambda *a, **k: plain(*a, **{**k, "from_material": False})
 scene = validation_scene(hdri, workdir, 128)
 
 panel = isolated_sphere("Panel", -1.25)
@@ -97,7 +98,26 @@ tree.links.new(separate.outputs["Green"], node.inputs["Roughness"])
 tree.links.new(separate.outputs["Blue"], node.inputs["Metallic"])
 packed.data.materials.append(material)
 
-steps, report = whole_pipeline([panel, rim, packed], workdir)
+# "Cutout": a Principled metal whose Alpha is a checker mask (a Math node's Greater
+# Than of a Checker Texture, as a glTF importer's alpha mask): its holes show the
+# inside of the sphere.
+cutout = isolated_sphere("Cutout", 6.25)
+material, tree, node = shader_material("Cutout")
+node.inputs["Base Color"].default_value = (0.9, 0.5, 0.3, 1.0)
+node.inputs["Metallic"].default_value = 1.0
+node.inputs["Roughness"].default_value = 0.3
+mask = tree.nodes.new("ShaderNodeTexChecker")
+mask.inputs["Scale"].default_value = 3.0
+mask.inputs["Color1"].default_value = (1.0, 1.0, 1.0, 1.0)
+mask.inputs["Color2"].default_value = (0.0, 0.0, 0.0, 1.0)
+greater = tree.nodes.new("ShaderNodeMath")
+greater.operation = "GREATER_THAN"
+greater.inputs[1].default_value = 0.5
+tree.links.new(mask.outputs["Fac"], greater.inputs[0])
+tree.links.new(greater.outputs[0], node.inputs["Alpha"])
+cutout.data.materials.append(material)
+
+steps, report = whole_pipeline([panel, rim, packed, cutout], workdir)
 
 # An edit of the unlinked strength: the panel's check asks for a re-attach.
 from glossy.glossy_addon.emission import emission_changed  # noqa: E402
@@ -112,6 +132,8 @@ result_path.write_text(json.dumps({
     "lines": {obj.name: [line for line in parts(obj.data.materials[0]).derived.approximated
                          + parts(obj.data.materials[0]).derived.ignored
                          if "mission" in line] for obj in (panel, rim)},
+    "alpha": [line for line in parts(cutout.data.materials[0]).derived.approximated
+              + parts(cutout.data.materials[0]).derived.ignored if "lpha" in line],
     "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
     "changed": [changed_before, changed_after],
     "emission_set": json.loads(material.glossy.emission_set)}))
