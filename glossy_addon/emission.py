@@ -118,10 +118,13 @@ def _input(node, name):
 
 
 def values(surface) -> list:
-    """The unlinked emission inputs of the shaders at ``surface`` as
-    [[node name, input name, value], ...]: what the lookup holds as constants
+    """The emission inputs of the shaders at ``surface`` as [[node name, input
+    name, value or "linked"], ...], and the Alpha the lookup applies
+    (glossy_addon.transparency): what the lookup holds as constants
     (:func:`emission_value`); the panel asks for a re-attach when they change."""
-    out = []
+    from .transparency import alpha_values
+
+    out = alpha_values(surface)
     for emitter in emitters(surface):
         node = emitter.node
         names = ["Emission Color", "Emission Strength"] \

@@ -261,8 +261,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
         probe = obj.glossy.probe_path if obj is not None else ""
         layout.label(text=f"Bake: {bake_status(settings, probe)}", icon="INFO")
         if emission_changed(context.material):
-            _reason(layout, "The material's emission changed since the last attach: attach "
-                            "again", icon="ERROR")
+            _reason(layout, "The material's emission or alpha changed since the last attach: "
+                            "attach again", icon="ERROR")
         if settings.copy_of:
             _reason(layout, f"Glossy's copy of '{settings.copy_of}' for "
                             f"{settings.bake_object or 'this object'}: it reflects that "

@@ -265,7 +265,7 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
     lamp_set: bpy.props.StringProperty(
         name="Attached Lamps", description="The lamps (names, types) at the last attach (JSON)")
     emission_set: bpy.props.StringProperty(
-        name="Attached Emission", description="The unlinked emission inputs the lookup holds, "
+        name="Attached Emission", description="The emission and alpha inputs the lookup holds, "
         "at the last attach of a From Material lookup (JSON; glossy_addon.emission.values; "
         "empty: no such attach)")
     lamp_skipped: bpy.props.StringProperty(

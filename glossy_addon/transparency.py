@@ -15,7 +15,7 @@ of the per-pixel inputs (glossy_addon.spatial); inside Mix or Add Shaders
 its Alpha stays listed as ignored.
 """
 
-__all__ = ["alpha_input"]
+__all__ = ["alpha_input", "alpha_values"]
 
 
 def _source(socket):
@@ -43,3 +43,14 @@ def alpha_input(surface):
         return node.inputs["Alpha"].links[0].from_socket
     value = float(node.inputs["Alpha"].default_value)
     return value if value < 1.0 else None
+
+
+def alpha_values(surface) -> list:
+    """[[node name, "Alpha", value or "linked"]] of :func:`alpha_input`'s Alpha ([]
+    without one): what the lookup holds (glossy_addon.emission.values records it
+    beside the emission, so the panel asks for a re-attach when it changes)."""
+    alpha = alpha_input(surface)
+    if alpha is None:
+        return []
+    node, _ = _source(surface)
+    return [[node.name, "Alpha", round(alpha, 6) if isinstance(alpha, float) else "linked"]]

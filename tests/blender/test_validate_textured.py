@@ -173,3 +173,6 @@ def test_an_alpha_mask_cuts_the_lookup_as_it_cuts_cycles(user_materials):
     # The metal's Hybrid at GGX 0.3 in forest (README, "Where the methods stand":
     # 1.6-2.6%) within Cycles' noise: as test_metallic_bsdf_... bounds it.
     assert glossy < noise + 0.02, (noise, glossy)
+    # The attach records the Alpha it applies; unlinking it asks for Attach again.
+    assert result["cutout_set"] == [["Principled BSDF", "Alpha", "linked"]]
+    assert result["alpha_changed"] == [False, True]

@@ -126,14 +126,22 @@ material = panel.data.materials[0]
 changed_before = emission_changed(material)
 material.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 1.5
 changed_after = emission_changed(material)
+cutout_material = cutout.data.materials[0]
+alpha_lines = [line for line in parts(cutout_material).derived.approximated
+               + parts(cutout_material).derived.ignored if "lpha" in line]
+alpha_changed = [emission_changed(cutout_material)]
+cutout_material.node_tree.links.remove(
+    cutout_material.node_tree.nodes["Principled BSDF"].inputs["Alpha"].links[0])
+alpha_changed.append(emission_changed(cutout_material))  # now an unlinked 1
 result_path.write_text(json.dumps({
     "steps": steps, "notes": report["notes"],
     "figures": {entry["object"]: entry["figures"] for entry in report["objects"]},
     "lines": {obj.name: [line for line in parts(obj.data.materials[0]).derived.approximated
                          + parts(obj.data.materials[0]).derived.ignored
                          if "mission" in line] for obj in (panel, rim)},
-    "alpha": [line for line in parts(cutout.data.materials[0]).derived.approximated
-              + parts(cutout.data.materials[0]).derived.ignored if "lpha" in line],
+    "alpha": alpha_lines,
     "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
     "changed": [changed_before, changed_after],
+    "alpha_changed": alpha_changed,
+    "cutout_set": json.loads(cutout_material.glossy.emission_set),
     "emission_set": json.loads(material.glossy.emission_set)}))
