@@ -14,7 +14,9 @@ as Cycles emits it (intern/cycles/kernel/svm/closure.h):
 - an Emission shader emits Color x Strength;
 - through an Add Shader unchanged; through a Mix Shader times 1 - Fac (its
   first shader) or Fac (its second), the Fac per pixel from the user's own
-  socket when it is linked (a mask, a Fresnel or Layer Weight node).
+  socket when it is linked (a mask, a Fresnel or Layer Weight node); but a
+  Mix Shader of a Transparent BSDF at the surface is the lookup's opacity
+  (glossy_addon.transparency), applied once, after.
 
 Colours, strengths and factors are the user's sockets where linked
 (textures stay per pixel, and follow the user's edits), their values at
@@ -103,7 +105,13 @@ def emitters(surface) -> list:
         elif _emits(node):
             found.append(Emitter(node, path))
 
-    walk(surface, [])
+    from .transparency import transparent_mix
+
+    cut = transparent_mix(surface)  # its Fac is the lookup's final opacity
+    if cut is not None:
+        walk(cut[0].inputs[cut[1]], [])
+    else:
+        walk(surface, [])
     return found
 
 

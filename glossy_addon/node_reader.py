@@ -679,8 +679,19 @@ def read_material(material) -> Derived:
         reader.derived.ignored.append(f"{output.name}: the volume shader")
     if output.inputs["Displacement"].is_linked:
         reader.derived.ignored.append(f"{output.name}: displacement")
-    reader.plan_spatial(output.inputs["Surface"])
-    spec = reader.shader(output.inputs["Surface"], output.name)
+    from .transparency import alpha_input, transparent_mix
+
+    # A Mix Shader of a Transparent BSDF at the surface: the other shader is baked
+    # whole, and the lookup mixes the Transparent BSDF in by the same Fac.
+    cut = transparent_mix(output.inputs["Surface"])
+    surface = cut[0].inputs[cut[1]] if cut is not None else output.inputs["Surface"]
+    reader.plan_spatial(surface)
+    spec = reader.shader(surface, output.name if cut is None else
+                         f"{output.name} > {cut[0].name}")
+    if cut is not None:
+        reader.derived.approximated.append(
+            f"{cut[0].name}: its Transparent BSDF: not baked; the lookup mixes it in by "
+            "the same Fac, as Cycles does (glossy_addon.transparency)")
     if not spec:
         raise NodeReadError(f"{material.name}: the surface reflects nothing Glossy can bake "
                             f"({'; '.join(reader.derived.ignored) or 'no BSDF'})")
@@ -690,8 +701,7 @@ def read_material(material) -> Derived:
         raise NodeReadError(f"{material.name}: {error}") from None
     reader.verify_split(model)
     reader.spatial_notes()
-    from .transparency import alpha_input
-    if alpha_input(output.inputs["Surface"]) is not None:  # the lookup applies it
+    if cut is None and alpha_input(output.inputs["Surface"]) is not None:  # applied
         derived = reader.derived
         for line in [line for line in derived.ignored if line.endswith(": alpha (transparency)")]:
             derived.ignored.remove(line)

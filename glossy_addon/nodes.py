@@ -343,9 +343,13 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
         from .transparency import alpha_input
         alpha = alpha_input(user_output.inputs["Surface"])
     if alpha is not None:  # Cycles: Transparent BSDF x (1 - Alpha), the rest x Alpha
+        opacity, inverted = alpha
+        if inverted:
+            opacity = 1.0 - opacity if isinstance(opacity, float) else \
+                b.math("SUBTRACT", 1.0, opacity)
         transparent = b._place(tree.nodes.new("ShaderNodeBsdfTransparent"))
         mix = b._place(tree.nodes.new("ShaderNodeMixShader"))
-        b.link(alpha, mix.inputs["Fac"])
+        b.link(opacity, mix.inputs["Fac"])
         b.link(transparent.outputs[0], mix.inputs[1])
         b.link(surface, mix.inputs[2])
         surface = mix.outputs[0]

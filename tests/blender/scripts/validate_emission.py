@@ -13,7 +13,9 @@ node of IOR 1.45: the glow 1 - F, strongest facing the camera, the plastic
 F). A third, "Packed", is a metallic-roughness material as Blender's glTF
 importer builds it (one image's G and B channels into Roughness and Metallic
 through a Separate Color node); a fourth, "Cutout", a metal whose Alpha is a
-checker mask. Cycles 2 x 256 spp, 128 px, EEVEE 4 samples.
+checker mask; a fifth, "Masked", the older cut-out: a Mix Shader of a
+Transparent BSDF and a glowing Principled metal by such a mask. Cycles 2 x 256
+spp, 128 px, EEVEE 4 samples.
 Then the Panel's unlinked Emission Strength is edited to 1.5: the panel's
 check asks for a re-attach. Writes the steps, each sphere's figures, the
 notes, the reader's lines about emission, the check before and after the edit
@@ -117,7 +119,44 @@ tree.links.new(mask.outputs["Fac"], greater.inputs[0])
 tree.links.new(greater.outputs[0], node.inputs["Alpha"])
 cutout.data.materials.append(material)
 
-steps, report = whole_pipeline([panel, rim, packed, cutout], workdir)
+# "Masked": the older cut-out, a Mix Shader of a Transparent BSDF and a glowing
+# Principled metal, its Fac the same kind of mask (the emission is to be weighted
+# by the mask once, by the lookup's final mix).
+masked = isolated_sphere("Masked", 8.75)
+material, tree, node = shader_material("Masked")
+node.inputs["Base Color"].default_value = (0.5, 0.6, 0.9, 1.0)
+node.inputs["Metallic"].default_value = 1.0
+node.inputs["Roughness"].default_value = 0.3
+node.inputs["Emission Color"].default_value = (1.0, 0.5, 0.1, 1.0)
+node.inputs["Emission Strength"].default_value = 0.3
+output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+hole = tree.nodes.new("ShaderNodeBsdfTransparent")
+cut = tree.nodes.new("ShaderNodeMixShader")
+mask = tree.nodes.new("ShaderNodeTexChecker")
+mask.inputs["Scale"].default_value = 3.0
+greater = tree.nodes.new("ShaderNodeMath")
+greater.operation = "GREATER_THAN"
+greater.inputs[1].default_value = 0.5
+tree.links.new(mask.outputs["Fac"], greater.inputs[0])
+tree.links.new(greater.outputs[0], cut.inputs["Fac"])
+tree.links.new(hole.outputs[0], cut.inputs[1])
+tree.links.new(node.outputs[0], cut.inputs[2])
+tree.links.new(cut.outputs[0], output.inputs["Surface"])
+masked.data.materials.append(material)
+
+# Two rows (3 over 2), so the framing camera sees each sphere about as large as
+# three in a row.
+for obj, location in ((panel, (-2.5, 0.0, 1.25)), (rim, (0.0, 0.0, 1.25)),
+                      (packed, (2.5, 0.0, 1.25)), (cutout, (-1.25, 0.0, -1.25)),
+                      (masked, (1.25, 0.0, -1.25))):
+    obj.location = location
+steps, report = whole_pipeline([panel, rim, packed, cutout, masked], workdir)
+masked_material = masked.data.materials[0]
+mask_links = sorted(link.to_node.bl_idname for link in greater.outputs[0].links
+                    if link.to_node.get("glossy_lookup"))
+masked_lines = [line for line in parts(masked_material).derived.approximated
+                + parts(masked_material).derived.ignored if "Transparent" in line]
+masked_spec = parts(masked_material).derived.spec
 
 # An edit of the unlinked strength: the panel's check asks for a re-attach.
 from glossy.glossy_addon.emission import emission_changed  # noqa: E402
@@ -140,6 +179,7 @@ result_path.write_text(json.dumps({
                          + parts(obj.data.materials[0]).derived.ignored
                          if "mission" in line] for obj in (panel, rim)},
     "alpha": alpha_lines,
+    "mask_links": mask_links, "masked_lines": masked_lines, "masked_spec": masked_spec,
     "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
     "changed": [changed_before, changed_after],
     "alpha_changed": alpha_changed,
