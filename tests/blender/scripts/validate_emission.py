@@ -45,6 +45,17 @@ if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures 
     bake_materials.build_lookup = lambda *a, **k: plain(*a, **{**k, "from_material": False})
 scene = validation_scene(hdri, workdir, 128)
 
+
+
+def checker(tree, scale, first):
+    """A Checker Texture in ``tree`` of ``first`` (3,) and black at ``scale``."""
+    node = tree.nodes.new("ShaderNodeTexChecker")
+    node.inputs["Scale"].default_value = scale
+    node.inputs["Color1"].default_value = (*first, 1.0)
+    node.inputs["Color2"].default_value = (0.0, 0.0, 0.0, 1.0)
+    return node
+
+
 panel = isolated_sphere("Panel", -1.25)
 material, tree, node = shader_material("Panel")
 node.inputs["Base Color"].default_value = (0.95, 0.7, 0.3, 1.0)
@@ -52,11 +63,8 @@ node.inputs["Metallic"].default_value = 1.0
 node.inputs["Roughness"].default_value = 0.3
 node.inputs["Coat Weight"].default_value = 0.6
 node.inputs["Coat Roughness"].default_value = 0.1
-checker = tree.nodes.new("ShaderNodeTexChecker")
-checker.inputs["Scale"].default_value = 4.0
-checker.inputs["Color1"].default_value = (0.1, 0.6, 1.0, 1.0)
-checker.inputs["Color2"].default_value = (0.0, 0.0, 0.0, 1.0)
-tree.links.new(checker.outputs["Color"], node.inputs["Emission Color"])
+tree.links.new(checker(tree, 4.0, (0.1, 0.6, 1.0)).outputs["Color"],
+               node.inputs["Emission Color"])
 node.inputs["Emission Strength"].default_value = 0.6
 panel.data.materials.append(material)
 
@@ -100,49 +108,40 @@ tree.links.new(separate.outputs["Green"], node.inputs["Roughness"])
 tree.links.new(separate.outputs["Blue"], node.inputs["Metallic"])
 packed.data.materials.append(material)
 
-# "Cutout": a Principled metal whose Alpha is a checker mask (a Math node's Greater
-# Than of a Checker Texture, as a glTF importer's alpha mask): its holes show the
-# inside of the sphere.
-cutout = isolated_sphere("Cutout", 6.25)
-material, tree, node = shader_material("Cutout")
-node.inputs["Base Color"].default_value = (0.9, 0.5, 0.3, 1.0)
-node.inputs["Metallic"].default_value = 1.0
-node.inputs["Roughness"].default_value = 0.3
-mask = tree.nodes.new("ShaderNodeTexChecker")
-mask.inputs["Scale"].default_value = 3.0
-mask.inputs["Color1"].default_value = (1.0, 1.0, 1.0, 1.0)
-mask.inputs["Color2"].default_value = (0.0, 0.0, 0.0, 1.0)
-greater = tree.nodes.new("ShaderNodeMath")
-greater.operation = "GREATER_THAN"
-greater.inputs[1].default_value = 0.5
-tree.links.new(mask.outputs["Fac"], greater.inputs[0])
-tree.links.new(greater.outputs[0], node.inputs["Alpha"])
-cutout.data.materials.append(material)
+
+def masked_metal(name, x, colour):
+    """(sphere, its material's tree, its Principled metal at Roughness 0.3, a mask:
+    the Greater Than 0.5 of a Checker Texture, as a glTF importer's alpha mask)."""
+    obj = isolated_sphere(name, x)
+    material, tree, node = shader_material(name)
+    node.inputs["Base Color"].default_value = (*colour, 1.0)
+    node.inputs["Metallic"].default_value = 1.0
+    node.inputs["Roughness"].default_value = 0.3
+    greater = tree.nodes.new("ShaderNodeMath")
+    greater.operation = "GREATER_THAN"
+    greater.inputs[1].default_value = 0.5
+    tree.links.new(checker(tree, 3.0, (1.0, 1.0, 1.0)).outputs["Fac"], greater.inputs[0])
+    obj.data.materials.append(material)
+    return obj, tree, node, greater.outputs[0]
+
+
+# "Cutout": a metal whose Alpha is the mask: its holes show the inside of the sphere.
+cutout, tree, node, mask = masked_metal("Cutout", 6.25, (0.9, 0.5, 0.3))
+tree.links.new(mask, node.inputs["Alpha"])
 
 # "Masked": the older cut-out, a Mix Shader of a Transparent BSDF and a glowing
-# Principled metal, its Fac the same kind of mask (the emission is to be weighted
-# by the mask once, by the lookup's final mix).
-masked = isolated_sphere("Masked", 8.75)
-material, tree, node = shader_material("Masked")
-node.inputs["Base Color"].default_value = (0.5, 0.6, 0.9, 1.0)
-node.inputs["Metallic"].default_value = 1.0
-node.inputs["Roughness"].default_value = 0.3
+# metal by the same kind of mask (the emission is to be weighted by the mask
+# once, by the lookup's final mix).
+masked, tree, node, mask = masked_metal("Masked", 8.75, (0.5, 0.6, 0.9))
 node.inputs["Emission Color"].default_value = (1.0, 0.5, 0.1, 1.0)
 node.inputs["Emission Strength"].default_value = 0.3
 output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
 hole = tree.nodes.new("ShaderNodeBsdfTransparent")
 cut = tree.nodes.new("ShaderNodeMixShader")
-mask = tree.nodes.new("ShaderNodeTexChecker")
-mask.inputs["Scale"].default_value = 3.0
-greater = tree.nodes.new("ShaderNodeMath")
-greater.operation = "GREATER_THAN"
-greater.inputs[1].default_value = 0.5
-tree.links.new(mask.outputs["Fac"], greater.inputs[0])
-tree.links.new(greater.outputs[0], cut.inputs["Fac"])
+tree.links.new(mask, cut.inputs["Fac"])
 tree.links.new(hole.outputs[0], cut.inputs[1])
 tree.links.new(node.outputs[0], cut.inputs[2])
 tree.links.new(cut.outputs[0], output.inputs["Surface"])
-masked.data.materials.append(material)
 
 # Two rows (3 over 2), so the framing camera sees each sphere about as large as
 # three in a row.
@@ -152,7 +151,7 @@ for obj, location in ((panel, (-2.5, 0.0, 1.25)), (rim, (0.0, 0.0, 1.25)),
     obj.location = location
 steps, report = whole_pipeline([panel, rim, packed, cutout, masked], workdir)
 masked_material = masked.data.materials[0]
-mask_links = sorted(link.to_node.bl_idname for link in greater.outputs[0].links
+mask_links = sorted(link.to_node.bl_idname for link in mask.links
                     if link.to_node.get("glossy_lookup"))
 masked_lines = [line for line in parts(masked_material).derived.approximated
                 + parts(masked_material).derived.ignored if "Transparent" in line]
