@@ -663,18 +663,28 @@ def light_radiance(atlas, meta, frames, wo):
     (:func:`widened_d`). Exact f cos E for a point light of an untinted
     single-scattering GGX lobe; a tint, Fresnel and multiple scattering enter
     through rho / A_ss, their average over the lobe (exact for a tint)."""
-    ax, ay = float(meta["ax"]), float(meta["ay"])
-    kind = meta.get("kind", "ggx")
+    directions, irradiances, widened, spreads = lights_of(atlas, meta)
+    total = light_sum(directions, irradiances, widened[:, 0], widened[:, 1], spreads, frames,
+                      wo, float(meta["ax"]), float(meta["ay"]), meta.get("kind", "ggx"))
+    return total * _albedo(atlas, meta, wo, table=1)
+
+
+def light_sum(directions, irradiances, bx, by, spreads, frames, wo, ax, ay, kind="ggx"):
+    """(B, 3) sum over lights of D_B(h) G2(l, wo) / (4 wo_z) E: :func:`light_radiance`
+    before its scale rho / A_ss. directions, irradiances (N, 3) (world); the widened
+    alphas bx, by (N,) or (N, B) per pixel; spreads (N,) (rad); frames (B, 3, 3);
+    wo (B, 3) (lobe frame); the lobe's alphas ax, ay: floats or (B,) per pixel
+    (bake.knot_lights: a roughness texture)."""
     total = np.zeros((len(wo), 3))
     lambda_o = lobe_lambda(kind, wo, ax, ay)
-    for direction, irradiance, (bx, by), spread in zip(*lights_of(atlas, meta),
-                                                       strict=True):
+    for direction, irradiance, bx_l, by_l, spread in zip(directions, irradiances, bx, by,
+                                                         spreads, strict=True):
         wi = frames @ direction  # (B, 3); unit to float32 rounding, as the nodes take it
         h = wi + wo
         h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-30)
         valid = (wi[:, 2] > 0) & (np.sum(wo * h, axis=1) > 0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            value = widened_d(kind, h, wi, wo, bx, by, spread) / (4.0 * wo[:, 2] * (
+            value = widened_d(kind, h, wi, wo, bx_l, by_l, spread) / (4.0 * wo[:, 2] * (
                 1.0 + lambda_o + lobe_lambda(kind, wi, ax, ay)))
         total += np.where(valid, value, 0.0)[:, None] * irradiance
-    return total * _albedo(atlas, meta, wo, table=1)
+    return total

@@ -106,11 +106,28 @@ def choose(settings) -> tuple:
     texture = _per_pixel_texture(settings)
     if texture:
         return "3d", (f"3D Map: the {texture} texture is followed per pixel by maps baked "
-                      f"at its knots (the Hybrid's runtime part would take one value)")
+                      f"at its knots (the Hybrid's runtime part would take one value)"
+                      + ("; the probe's small bright lights beside them, shaded exactly at "
+                         "the pixel's roughness (Probe Lights)"
+                         if knot_lights_apply(settings) else ""))
     if lobe.kind == "beckmann":
         return "hybrid", ("Hybrid: an isotropic Beckmann lobe (sampled through GGX's "
                           "visible normals), where it measured below the 3D map")
     return "hybrid", "Hybrid: an isotropic GGX lobe, where it measured below the 3D map"
+
+
+def knot_lights_apply(settings) -> bool:
+    """Whether a From Material bake whose maps follow a texture per pixel (the 3D
+    map's knots) takes the probe's small bright lights out and shades them exactly
+    beside the maps (bake.knot_lights): Probe Lights on and one isotropic GGX or
+    Beckmann lobe that the lights' nodes evaluate."""
+    if not settings.probe_lights or settings.model != "MATERIAL":
+        return False
+    try:
+        lobe = check(settings.brdf_spec())[0]
+    except (BakeError, ValueError):
+        return False
+    return not lobe.anisotropic
 
 
 def _per_pixel_texture(settings) -> str:

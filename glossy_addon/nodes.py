@@ -214,7 +214,8 @@ def _group_node(b, tree, values):
 
 def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=None,
                  runtime=None, tangent=("RADIAL", "Z"), diffuse_curve=None, spatial=None,
-                 roughness_maps=None, map_inputs=None, from_material=False):
+                 roughness_maps=None, map_inputs=None, from_material=False,
+                 knot_lights=None):
     """Add the atlas lookup of ``image`` (bake.atlas layout) to ``material`` and make
     it the active Material Output's surface.
 
@@ -255,6 +256,9 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     add what the user's own shaders emit (a Principled BSDF's Emission,
     Emission shaders added or mixed in; glossy_addon.emission) and mix in a
     Transparent BSDF by its Principled BSDF's Alpha (glossy_addon.transparency).
+    ``knot_lights``: (image, meta) of a bake.knot_lights texture: the probe lights
+    taken out of the ``roughness_maps``' probe, added to each map at the pixel's
+    roughness (the roughness socket's; glossy_addon.sampling_nodes.knot_lights_sum).
     """
     material.use_nodes = True
     tree = material.node_tree
@@ -267,11 +271,20 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     b = _Builder(tree)
     mean_value = None
     if roughness_maps is not None:
+        lights = None
+        if knot_lights is not None:
+            from .sampling_nodes import knot_lights_sum
+
+            geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+            lights = (*knot_lights, *knot_lights_sum(
+                b, *knot_lights, geometry.outputs["Normal"], geometry.outputs["Incoming"],
+                roughness_maps[0]))
         if runtime is not None and map_inputs and (
                 map_inputs.get("colour") is not None or map_inputs.get("metallic") is not None):
-            value, mean_value = _combined_maps(b, *roughness_maps, map_inputs, at_mean=True)
+            value, mean_value = _combined_maps(b, *roughness_maps, map_inputs, at_mean=True,
+                                               lights=lights)
         else:
-            value = _combined_maps(b, *roughness_maps, map_inputs)
+            value = _combined_maps(b, *roughness_maps, map_inputs, lights=lights)
     else:
         value = _environment(b, image, meta) if image is not None else None
     if runtime is not None:
@@ -445,7 +458,7 @@ def _factor(b, socket, mean):
     return b.vec("DIVIDE", socket, b.combine(*(float(max(c, 1e-6)) for c in mean)))
 
 
-def _combined_maps(b, roughness, maps, inputs=None, at_mean=False):
+def _combined_maps(b, roughness, maps, inputs=None, at_mean=False, lights=None):
     """The value of build_lookup's ``roughness_maps`` (see there): per roughness
     knot the map's lookup, or its maps combined (the colour split of the metal's,
     mixed with the map at Metallic 0 by the metallic socket); then the
@@ -453,9 +466,25 @@ def _combined_maps(b, roughness, maps, inputs=None, at_mean=False):
     same lookups combined at the baked means of the colour and metallic,
     ``inputs["colour_mean"]`` and ``inputs["metallic_mean"]``, with no coat
     tint texture): what a part baked at those means (the Hybrid's runtime
-    texture) is to be scaled by, per pixel and channel, as value / mean value."""
+    texture) is to be scaled by, per pixel and channel, as value / mean value.
+    ``lights``: (image, meta, S, Wo) of a bake.knot_lights texture and its sum
+    (glossy_addon.sampling_nodes.knot_lights_sum): each map's lookup gets its
+    table's rho / A_ss times S before any combination."""
     knots = sorted({r for r, _, _, _ in maps}, key=lambda r: -1.0 if r is None else r)
-    lookups = {knot: {key: _environment(b, image, meta)
+
+    def lookup(image, meta, knot, key):
+        value = _environment(b, image, meta)
+        if lights is None or lights[2] is None:
+            return value
+        from ..bake.knot_lights import table_index
+        from .sampling_nodes import knot_light_scale
+
+        light_image, light_meta, total, wo = lights
+        scale = knot_light_scale(b, light_image, light_meta, wo,
+                                 table_index(light_meta, knot, key))
+        return b.vec("ADD", value, b.vec("MULTIPLY", total, scale))
+
+    lookups = {knot: {key: lookup(image, meta, knot, key)
                       for r, key, image, meta in maps if r == knot} for knot in knots}
 
     def combined(colour, metallic, tinted):

@@ -207,7 +207,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "closest count). The nodes loop over them: more samples cost shading time per "
         "pixel, not shader compile time", default=19, min=1, max=444, soft_max=200)
     probe_lights: bpy.props.BoolProperty(
-        name="Probe Lights", description="Runtime Sampling and Hybrid: take the probe's small "
+        name="Probe Lights", description="Runtime Sampling, Hybrid and a From Material 3D "
+        "map that follows a texture per pixel: take the probe's small "
         "bright lights (a sun, lamps a few texels wide) out of it, and its wide bright "
         "regions (softboxes, windows) as tiles of a quarter of the lobe's width, and shade "
         "them exactly as directional lights (bake.probe_lights; at most 96 per material); "
@@ -215,7 +216,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         default=True)
     runtime_path: bpy.props.StringProperty(
         name="Baked Sampling Levels", description="The runtime-sampling texture of a Hybrid "
-        "bake", subtype="FILE_PATH")
+        "bake, or the probe lights beside a From Material 3D map's knots (bake.knot_lights)",
+        subtype="FILE_PATH")
     slices: bpy.props.IntProperty(name="Slices", default=16, min=0, max=256)
     lobes: bpy.props.IntProperty(name="Lobes", description="Lobes per slice (3D map)",
                                  default=1, min=1, max=4)

@@ -33,11 +33,17 @@ SAMPLE_GROUP = f"Glossy VNDF Sample v{GROUP_VERSION}"
 _FLOAT, _VECTOR = "NodeSocketFloat", "NodeSocketVector"
 
 
+def _square(b, value):
+    """value^2: a float, or a socket's square (a per-pixel alpha)."""
+    return value * value if isinstance(value, (int, float)) else b.math("MULTIPLY", value, value)
+
+
 def _lambda(b, w, ax, ay):
-    """GGX Smith Lambda (sqrt(1 + (ax^2 wx^2 + ay^2 wy^2) / wz^2) - 1) / 2."""
+    """GGX Smith Lambda (sqrt(1 + (ax^2 wx^2 + ay^2 wy^2) / wz^2) - 1) / 2 (alphas floats or
+    sockets)."""
     x, y, z = b.separate(w)
-    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), ax * ax),
-                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), ay * ay))
+    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), _square(b, ax)),
+                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), _square(b, ay)))
     ratio = b.math("DIVIDE", top, b.math("MAXIMUM", b.math("MULTIPLY", z, z), 1e-12))
     return b.math("MULTIPLY", b.math("SUBTRACT", b.math("SQRT", b.math("ADD", ratio, 1.0)),
                                      1.0), 0.5)
@@ -49,8 +55,8 @@ def _lambda_beckmann(b, w, ax, ay):
     / (3.535 a + 2.181 a^2) where s >= 0.39, else 0 (a taken at s >= 0.39 only, so no
     infinity meets the zero)."""
     x, y, z = b.separate(w)
-    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), ax * ax),
-                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), ay * ay))
+    top = b.math("ADD", b.math("MULTIPLY", b.math("MULTIPLY", x, x), _square(b, ax)),
+                 b.math("MULTIPLY", b.math("MULTIPLY", y, y), _square(b, ay)))
     ratio = b.math("DIVIDE", top, b.math("MAXIMUM", b.math("MULTIPLY", z, z), 1e-12))
     a = b.math("DIVIDE", 1.0, b.math("SQRT", b.math("MAXIMUM", ratio, 0.39)))
     a2 = b.math("MULTIPLY", a, a)
@@ -217,16 +223,22 @@ def light_group(ax, ay, kind="ggx"):
     the light's Spread (RMS radius, rad); output Radiance = D_B(h) / (4 wo_z (1 +
     Lambda_o + Lambda(l))) E, zero where the light is below the surface (D_B:
     the lobe's D averaged over the light's extent, bake.sampling_runtime.widened_d).
-    ``kind`` "beckmann": Beckmann's D, and its Lambdas (of Wo computed here)."""
-    name = f"{LIGHT_GROUP} {ax:.6g} {ay:.6g}{_kind_suffix(kind)}"
+    ``kind`` "beckmann": Beckmann's D, and its Lambdas (of Wo computed here).
+    ``ax`` None: the lobe's alphas are inputs AX, AY too (a per-pixel roughness,
+    bake.knot_lights), one group for every material of the kind."""
+    varying = ax is None
+    name = f"{LIGHT_GROUP} {'varying' if varying else f'{ax:.6g} {ay:.6g}'}{_kind_suffix(kind)}"
     tree = _group(name, [(s, _VECTOR) for s in ("X", "Y", "N", "Wo", "Direction",
                                                   "Irradiance")]
-                  + [(s, _FLOAT) for s in ("Lambda", "BX", "BY", "Spread")],
+                  + [(s, _FLOAT) for s in ("Lambda", "BX", "BY", "Spread")
+                     + (("AX", "AY") if varying else ())],
                   [("Radiance", _VECTOR)])
     if tree is None:
         return bpy.data.node_groups[name]
     b = _Builder(tree)
     i, outputs = _io(tree)
+    if varying:
+        ax, ay = i["AX"], i["AY"]
     d = i["Direction"]
     wi = b.combine(b.vec("DOT_PRODUCT", d, i["X"]), b.vec("DOT_PRODUCT", d, i["Y"]),
                    b.vec("DOT_PRODUCT", d, i["N"]))
@@ -347,6 +359,63 @@ def _sample_data(b, image, meta, index):
     """(P1, P2, Prob) of sample ``index`` (a socket) from its texel (module doc of
     bake.sampling_runtime: row sample_row + index div W, column 1 + index mod W)."""
     return b.separate(_texel(b, image, meta, float(meta["sample_row"]), index))
+
+
+def knot_lights_sum(b, image, meta, normal, view, roughness=None):
+    """(S, Wo): the probe lights' sum S(alpha) before each map's scale (vector socket)
+    and the lobe-frame view, for a bake.knot_lights texture (its twin:
+    bake.knot_lights.shade), alpha = clamp(roughness, MIN_ROUGHNESS, 1)^2 from the
+    user's ``roughness`` socket (None: the meta's constant alpha). A repeat zone over
+    the lights, each read from its three texels and shaded by the varying
+    :func:`light_group`; None for S where the bake took no lights."""
+    from ..bake.knot_lights import MIN_ROUGHNESS
+
+    lights = meta.get("lights") or []
+    kind = meta.get("kind", "ggx")
+    if roughness is None:
+        alpha = float(meta["alpha"])
+    else:
+        r = b.math("MINIMUM", b.math("MAXIMUM", roughness, MIN_ROUGHNESS), 1.0)
+        alpha = b.math("MULTIPLY", r, r)
+    # An isotropic lobe: any tangent frame (the radial one, as the Hybrid's default).
+    frame = _group_node(b, frame_group(0.1, 0.1), {
+        "Normal": normal, "Incoming": view, "Tangent": tangent_socket(b, ("RADIAL", "Z")),
+        "Angle": 0.0, "MinCos": float(meta["min_cos"]), "Stretched": 0.0})
+    if not lights:
+        return None, frame["Wo"]
+    state, result, after = _repeat_zone(b, len(lights), [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
+    first = b.math("MULTIPLY", state["Iteration"], 3.0)
+    direction, irradiance, extent = (
+        _texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
+        for c in range(3))
+    spread, _, _ = b.separate(extent)
+    widen = b.math("MULTIPLY", spread, LIGHT_WIDENING)
+    widened = b.math("SQRT", b.math("ADD", _square(b, alpha), b.math("MULTIPLY", widen, widen)))
+    node = _group_node(b, light_group(None, None, kind), {
+        "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
+        "Lambda": _lambda(b, frame["Wo"], alpha, alpha), "Direction": direction,
+        "Irradiance": irradiance, "BX": widened, "BY": widened, "Spread": spread,
+        "AX": alpha, "AY": alpha})
+    b.link(b.vec("ADD", state["Sum"], node["Radiance"]), result["Sum"])
+    return after["Sum"], frame["Wo"]
+
+
+def knot_light_scale(b, image, meta, wo, index):
+    """Table ``index``'s rho / A_ss (colour socket) at the lobe-frame view ``wo`` of a
+    bake.knot_lights texture: two Closest taps, linear in mu between them."""
+    count_mu = int(meta["albedo_mu"])
+    height, width = int(meta["slice_height"]), int(meta["slice_width"])
+    rows, cols = float(height + 2), float(width + 3)
+    min_cos = float(meta["min_cos"])
+    _, _, wz = b.separate(wo)
+    x = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math(
+        "DIVIDE", b.math("SUBTRACT", wz, min_cos), 1.0 - min_cos), 0.0), 1.0), count_mu - 1)
+    x0 = b.math("MINIMUM", b.math("FLOOR", x), count_mu - 2)
+    v = 1.0 - (1 + index + 0.5) / rows
+    u0 = b.math("DIVIDE", b.math("ADD", x0, 1.5), cols)
+    u1 = b.math("DIVIDE", b.math("ADD", x0, 2.5), cols)
+    return b.mix(b.math("SUBTRACT", x, x0), _tap(b, b.combine(u0, v), image),
+                 _tap(b, b.combine(u1, v), image))
 
 
 def runtime_value(b, image, meta, normal, view, tangent):

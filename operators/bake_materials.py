@@ -13,6 +13,7 @@ from ..bake import (
     brdf,
     exr,
     hybrid,
+    knot_lights,
     lamp_spread,
     outputs,
     prefilter,
@@ -30,6 +31,7 @@ from ..glossy_addon.emission import values as emission_values
 from ..glossy_addon.lamps import lamp_set, scene_lamps
 from ..glossy_addon.material_source import parts as material_parts
 from ..glossy_addon.materials import effective_tangent, stash_original
+from ..glossy_addon.method_choice import knot_lights_apply
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.nodes import build_lookup, load_atlas, user_output
 from ..glossy_addon.paths import output_folder
@@ -304,9 +306,11 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                                           lamp_objects))
             # The world's pixels (read and hashed: about a second for an 8k HDRI) only
             # when some material shades probe lights (Runtime Sampling, the Hybrid).
+            # (and the 3D map's knots with their lights' texture: job[5]).
             lit = any(bpy.data.materials[job[1]].glossy.probe_lights
-                      and bpy.data.materials[job[1]].glossy.method_used() in
-                      ("runtime", "hybrid") for job in todo if job[0] == obj.name)
+                      and (bpy.data.materials[job[1]].glossy.method_used() in
+                           ("runtime", "hybrid") or job[5] is not None)
+                      for job in todo if job[0] == obj.name)
             world, note = world_of(context.scene, meta) if lit else (None, None)
             self._probes[obj.name] = (probe_path, meta, world, note)
         return todo
@@ -370,6 +374,11 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 runtime_path = ownership.claim(folder, stem, "_hybrid_runtime.exr", material,
                                                taken)
                 taken.add(runtime_path)
+            elif method == "3d" and knot_paths and knot_lights_apply(settings):
+                # The probe lights beside the knots' maps (bake.knot_lights).
+                runtime_path = ownership.claim(folder, stem, "_3d_lights.exr", material,
+                                               taken)
+                taken.add(runtime_path)
             if any(settings.diffuse_colour()):
                 diffuse_path = ownership.claim(folder, stem, "_diffuse.exr", material, taken)
                 taken.add(diffuse_path)
@@ -424,15 +433,21 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         max_size = settings.map_size if auto else None
         runtime = None
         glossy_probe, lights, light_note = probe, (), None
+        # The 3D map's knots with the probe lights beside them (bake.knot_lights).
+        knot_lit = method == "3d" and runtime_path is not None
         if settings.probe_lights and (sampled or runtime_path is not None):
             # The sampled part and the Hybrid's map see the probe without its small
             # bright lights; the lights are shaded exactly (bake.probe_lights).
             lobe = sampling_runtime.check(spec, settings.samples)[0]
+            ax, ay = lobe.mx, lobe.my
+            if knot_lit:  # tiles for the narrowest knot's lobe
+                ax = ay = min([knot_lights.light_alpha(r) for r, _, _ in knot_paths
+                               if r is not None] or [lobe.mx])
             glossy_probe, lights, measured = yield from scaled_steps(background_steps(
-                _light_steps(probe, layout, lobe.mx, lobe.my, world)),
+                _light_steps(probe, layout, ax, ay, world)),
                 0.1 if lamp_path is not None else 0.0, 0.1)
             light_note = measured if world is not None else world_note
-        if sampled or runtime_path is not None:
+        if sampled or (runtime_path is not None and not knot_lit):
             rows, why = runtime_height(settings, probe, layout)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
                 spec, settings.samples, rows, why, glossy_probe, layout,
@@ -496,7 +511,12 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 reason = (f"{len(knots)} maps at {' and '.join(what)}, "
                           f"{min(sizes)}-{max(sizes)} rows "
                           f"({baked.meta['size_reason'].split(':')[-1].strip()})")
-            if runtime is not None:
+            if knot_lit and lights:
+                runtime = knot_lights.pack(lights, [(r, c, job_spec)
+                                                    for r, c, _, job_spec in jobs])
+                reason += (f"; {probe_lights.describe(lights)}, shaded exactly at the "
+                           f"pixel's roughness" + (f" ({light_note})" if light_note else ""))
+            elif runtime is not None:
                 reason += f"; {runtime_reason}"
         diffuse = None
         if diffuse_path is not None:
@@ -659,11 +679,14 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     image = load_atlas(path, precision=meta.get("precision", "float32"))
                     if meta.get("mode") == sampling_runtime.MODE:  # Runtime Sampling
                         runtime, image, meta = (image, meta), None, None
-                if settings.runtime_path:  # the Hybrid's second texture
+                lights = None
+                if settings.runtime_path:  # the Hybrid's second texture, or the knots' lights
                     runtime_meta = exr.read_meta(settings.runtime_path)
                     runtime = (load_atlas(settings.runtime_path,
                                           precision=runtime_meta.get("precision", "float32")),
                                runtime_meta)
+                    if runtime_meta.get("mode") == knot_lights.MODE:
+                        runtime, lights = None, runtime
                 tangent, warning = effective_tangent(material, obj)
                 settings.tangent_note = warning or ""
                 if warning:
@@ -684,13 +707,16 @@ class GLOSSY_OT_attach_materials(_MaterialsOperator, bpy.types.Operator):
                     if found.derived is not None else {}
                 roughness_maps, map_inputs = self._combined_maps(material, found, image,
                                                                  spatial)
+                if lights is not None and roughness_maps is None:
+                    raise BakeError(f"{material.name}: the textures its maps follow are no "
+                                    f"longer linked as at the bake: bake again")
                 build_lookup(material, image, meta, diffuse,
                              weighting[1] if weighting[0] == "fresnel" else 0.0, lamp_terms,
                              runtime=runtime, tangent=tangent,
                              diffuse_curve=weighting[1:] if weighting[0] == "curve" else None,
                              spatial=spatial, roughness_maps=roughness_maps,
                              map_inputs=map_inputs,
-                             from_material=settings.model == "MATERIAL")
+                             from_material=settings.model == "MATERIAL", knot_lights=lights)
                 settings.lamp_set = lamp_set(lamps) if lamp_terms else ""
                 output = user_output(material)
                 emitted = emission_values(output.inputs["Surface"]) \
