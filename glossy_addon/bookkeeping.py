@@ -35,7 +35,8 @@ def bake_inputs_hash(material_settings, probe_path) -> str:
         key["samples"] = material_settings.samples
         # The lights' layout in the runtime texture changed with tiles (version 2).
         key["probe_lights"] = [material_settings.probe_lights, 2]
-    elif method == "3d" and material_settings.model == "MATERIAL":
+    elif method == "3d" and material_settings.model == "MATERIAL" and \
+            material_settings.method == "auto":
         # The knots' maps take the probe lights out (bake.knot_lights, version 1).
         key["knot_lights"] = [material_settings.probe_lights, 1]
     if material_settings.model == "MATERIAL" and not spec.startswith("unreadable"):

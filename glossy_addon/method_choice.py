@@ -119,9 +119,10 @@ def choose(settings) -> tuple:
 def knot_lights_apply(settings) -> bool:
     """Whether a From Material bake whose maps follow a texture per pixel (the 3D
     map's knots) takes the probe's small bright lights out and shades them exactly
-    beside the maps (bake.knot_lights): Probe Lights on and one isotropic GGX or
-    Beckmann lobe that the lights' nodes evaluate."""
-    if not settings.probe_lights or settings.model != "MATERIAL":
+    beside the maps (bake.knot_lights): the Auto method (which chose the 3D map
+    for the texture; a 3D Map chosen by hand stays the map alone), Probe Lights
+    on and one isotropic GGX or Beckmann lobe that the lights' nodes evaluate."""
+    if not settings.probe_lights or settings.model != "MATERIAL" or settings.method != "auto":
         return False
     try:
         lobe = check(settings.brdf_spec())[0]

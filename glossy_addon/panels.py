@@ -253,7 +253,8 @@ class GLOSSY_PT_material(bpy.types.Panel):
             column.prop(settings, "lobes")
         if method in ("runtime", "hybrid"):
             column.prop(settings, "samples")
-        if method in ("runtime", "hybrid") or (method == "3d" and settings.model == "MATERIAL"):
+        if method in ("runtime", "hybrid") or (method == "3d" and settings.method == "auto"
+                                                and settings.model == "MATERIAL"):
             column.prop(settings, "probe_lights")
         column.prop(settings, "size_mode")
         column.prop(settings, "map_size",

@@ -207,8 +207,8 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         "closest count). The nodes loop over them: more samples cost shading time per "
         "pixel, not shader compile time", default=19, min=1, max=444, soft_max=200)
     probe_lights: bpy.props.BoolProperty(
-        name="Probe Lights", description="Runtime Sampling, Hybrid and a From Material 3D "
-        "map that follows a texture per pixel: take the probe's small "
+        name="Probe Lights", description="Runtime Sampling, Hybrid, and Auto's 3D map of a "
+        "From Material texture followed per pixel: take the probe's small "
         "bright lights (a sun, lamps a few texels wide) out of it, and its wide bright "
         "regions (softboxes, windows) as tiles of a quarter of the lobe's width, and shade "
         "them exactly as directional lights (bake.probe_lights; at most 96 per material); "

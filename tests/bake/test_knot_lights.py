@@ -3,8 +3,16 @@
 import numpy as np
 import pytest
 
-from bake import brdf, envmap, exr, knot_lights, prefilter, probe_lights, reference, \
-    sampling_runtime
+from bake import (
+    brdf,
+    envmap,
+    exr,
+    knot_lights,
+    prefilter,
+    probe_lights,
+    reference,
+    sampling_runtime,
+)
 from bake.errors import BakeError
 from tests.conftest import studio_lights
 
@@ -73,11 +81,9 @@ def test_the_residual_s_maps_and_the_lights_follow_a_roughness_texture_closer():
             split[pick] = prefilter.prefilter(residual, _spec(knot), "3d", "auto").shade(n, v) \
                 + knot_lights.shade(atlas, meta, n, v, roughness[pick], index)
 
-        def error(estimate):
-            return np.sqrt(np.mean(((estimate - truth) @ LUMINANCE) ** 2)
-                           / np.mean((truth @ LUMINANCE) ** 2))
-
-        assert error(split) < bound * error(whole), (name, error(split), error(whole))
+        errors = [np.sqrt(np.mean(((estimate - truth) @ LUMINANCE) ** 2)
+                          / np.mean((truth @ LUMINANCE) ** 2)) for estimate in (split, whole)]
+        assert errors[0] < bound * errors[1], (name, errors)
 
 
 def test_a_lobe_the_nodes_cannot_evaluate_is_refused():
