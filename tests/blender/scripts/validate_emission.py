@@ -180,6 +180,12 @@ result_path.write_text(json.dumps({
     "alpha": alpha_lines,
     "mask_links": mask_links, "masked_lines": masked_lines, "masked_spec": masked_spec,
     "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
+    "packed_bake": {"method": packed.data.materials[0].glossy.method_used(),
+                    "lights_path": packed.data.materials[0].glossy.runtime_path,
+                    "reason": packed.data.materials[0].glossy.size_reason,
+                    "groups": sorted({node.node_tree.name for node in
+                                      packed.data.materials[0].node_tree.nodes
+                                      if node.bl_idname == "ShaderNodeGroup"})},
     "changed": [changed_before, changed_after],
     "alpha_changed": alpha_changed,
     "cutout_set": json.loads(cutout_material.glossy.emission_set),
