@@ -298,6 +298,17 @@ def light_group(ax, ay, kind="ggx"):
     return tree
 
 
+def _light_loop(b, image, meta, count):
+    """(state, result, after, texels): a repeat zone summing a vector "Sum" over
+    ``count`` lights and, inside it, the iteration's light's three texels from row
+    ``meta["light_row"]`` (bake.sampling_runtime.light_texels, bake.knot_lights)."""
+    state, result, after = _repeat_zone(b, count, [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
+    first = b.math("MULTIPLY", state["Iteration"], 3.0)
+    texels = tuple(_texel(b, image, meta, float(meta["light_row"]),
+                          b.math("ADD", first, float(c))) for c in range(3))
+    return state, result, after, texels
+
+
 def _lights_value(b, image, meta, frame):
     """The probe lights' radiance (colour socket), or None without lights: a repeat
     zone over the lights, each read from its three atlas texels (direction,
@@ -308,11 +319,8 @@ def _lights_value(b, image, meta, frame):
         return None
     ax, ay = float(meta["ax"]), float(meta["ay"])
     group = light_group(ax, ay, meta.get("kind", "ggx"))
-    state, result, after = _repeat_zone(b, len(lights), [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
-    first = b.math("MULTIPLY", state["Iteration"], 3.0)
-    direction, irradiance, alphas = (
-        _texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
-        for c in range(3))
+    state, result, after, (direction, irradiance, alphas) = _light_loop(
+        b, image, meta, len(lights))
     bx, by, spread = b.separate(alphas)
     node = _group_node(b, group, {
         "X": frame["X"], "Y": frame["Y"], "N": frame["N"], "Wo": frame["Wo"],
@@ -383,11 +391,8 @@ def knot_lights_sum(b, image, meta, normal, view, roughness=None):
         "Angle": 0.0, "MinCos": float(meta["min_cos"]), "Stretched": 0.0})
     if not lights:
         return None, frame["Wo"]
-    state, result, after = _repeat_zone(b, len(lights), [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
-    first = b.math("MULTIPLY", state["Iteration"], 3.0)
-    direction, irradiance, extent = (
-        _texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
-        for c in range(3))
+    state, result, after, (direction, irradiance, extent) = _light_loop(
+        b, image, meta, len(lights))
     spread, _, _ = b.separate(extent)
     widen = b.math("MULTIPLY", spread, LIGHT_WIDENING)
     widened = b.math("SQRT", b.math("ADD", _square(b, alpha), b.math("MULTIPLY", widen, widen)))

@@ -24,7 +24,7 @@ import numpy as np
 workdir, hdri, result_path = Path(sys.argv[1]), sys.argv[2], sys.argv[-1]
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _ortho_sphere import ortho_sphere_scene  # noqa: E402
+from _ortho_sphere import eevee_renders, emission_material, ortho_sphere_scene  # noqa: E402
 from glossy.bake import atlas, envmap, exr, knot_lights, prefilter, probe_lights  # noqa: E402
 from glossy.glossy_addon.nodes import GEOMETRIC_FLOOR, build_lookup, load_atlas  # noqa: E402
 
@@ -78,37 +78,11 @@ build_lookup(lookup, None, None, roughness_maps=(socket, [
     knot_lights=(load_atlas(workdir / "lights.exr"), light_meta))
 
 
-def emitted(name, socket_of, encode):
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    tree = material.node_tree
-    tree.nodes.clear()
-    source = socket_of(tree)
-    emission = tree.nodes.new("ShaderNodeEmission")
-    if encode:  # colours clamp negatives: n / 2 + 1/2
-        node = tree.nodes.new("ShaderNodeVectorMath")
-        node.operation = "MULTIPLY_ADD"
-        node.inputs[1].default_value = node.inputs[2].default_value = (0.5, 0.5, 0.5)
-        tree.links.new(source, node.inputs[0])
-        source = node.outputs["Vector"]
-    tree.links.new(source, emission.inputs["Color"])
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    return material
-
-
-normals = emitted("normals", lambda tree: tree.nodes.new("ShaderNodeNewGeometry")
-                  .outputs["Normal"], True)
-roughness = emitted("roughness", roughness_chain, False)
-sphere.data.materials.append(lookup)
-scene.render.engine = "BLENDER_EEVEE"
-scene.eevee.taa_render_samples = 1
-renders = {}
-for name, material in (("lookup", lookup), ("normal", normals), ("roughness", roughness)):
-    sphere.data.materials[0] = material
-    scene.render.filepath = str(workdir / f"{name}.exr")
-    bpy.ops.render.render(write_still=True)
-    renders[name] = exr.read(scene.render.filepath)[0][..., :3].astype(np.float64)
+normals = emission_material(
+    "normals", lambda tree: tree.nodes.new("ShaderNodeNewGeometry").outputs["Normal"])
+roughness = emission_material("roughness", roughness_chain, encode=False)
+renders = eevee_renders(scene, sphere, workdir, {"lookup": lookup, "normal": normals,
+                                                 "roughness": roughness})
 n = renders["normal"] * 2.0 - 1.0
 on_sphere = (np.abs(np.linalg.norm(n, axis=-1) - 1.0) < 0.01) & (n[..., 2] > 0.05)
 n = n[on_sphere]

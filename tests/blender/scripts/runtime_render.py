@@ -24,7 +24,7 @@ repo, workdir, hdri, spec, result_path = (Path(sys.argv[1]), Path(sys.argv[2]), 
 with_lights = sys.argv[5:-1] == ["lights"]
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _ortho_sphere import ortho_sphere_scene  # noqa: E402
+from _ortho_sphere import eevee_renders, emission_material, ortho_sphere_scene  # noqa: E402
 from glossy.bake import envmap, exr, probe_lights, sampling_runtime  # noqa: E402
 from glossy.glossy_addon.nodes import load_atlas  # noqa: E402
 from glossy.glossy_addon.sampling_nodes import build_runtime  # noqa: E402
@@ -61,46 +61,19 @@ graphs = {name: {"nodes": len(material.node_tree.nodes), "samples": len(m["prob"
           for name, material, m in (("budget", lookup, meta), ("large", large, large_meta))}
 
 
-def encoded(name, socket_of):
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    tree = material.node_tree
-    tree.nodes.clear()
-    source = socket_of(tree)
-    unit = tree.nodes.new("ShaderNodeVectorMath")
-    unit.operation = "NORMALIZE"
-    encode = tree.nodes.new("ShaderNodeVectorMath")  # colours clamp negatives: v / 2 + 1/2
-    encode.operation = "MULTIPLY_ADD"
-    encode.inputs[1].default_value = (0.5, 0.5, 0.5)
-    encode.inputs[2].default_value = (0.5, 0.5, 0.5)
-    emission = tree.nodes.new("ShaderNodeEmission")
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(source, unit.inputs[0])
-    tree.links.new(unit.outputs["Vector"], encode.inputs[0])
-    tree.links.new(encode.outputs["Vector"], emission.inputs["Color"])
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    return material
-
-
 def radial(tree):
     node = tree.nodes.new("ShaderNodeTangent")
     node.direction_type, node.axis = "RADIAL", "Z"
     return node.outputs["Tangent"]
 
 
-normals = encoded("normals", lambda tree: tree.nodes.new("ShaderNodeNewGeometry").outputs["Normal"])
-tangents = encoded("tangents", radial)
-sphere.data.materials.append(lookup)
+normals = emission_material(
+    "normals", lambda tree: tree.nodes.new("ShaderNodeNewGeometry").outputs["Normal"])
+tangents = emission_material("tangents", radial)
 # EEVEE: the material is its target (Cycles' SVM runs out of stack space on
 # graphs of this many live values; Cycles renders the true BSDF instead).
-scene.render.engine = "BLENDER_EEVEE"
-scene.eevee.taa_render_samples = 1
-renders = {}
-for name, material in (("lookup", lookup), ("normal", normals), ("tangent", tangents)):
-    sphere.data.materials[0] = material
-    scene.render.filepath = str(workdir / f"{name}.exr")
-    bpy.ops.render.render(write_still=True)
-    renders[name] = exr.read(scene.render.filepath)[0][..., :3].astype(np.float64)
+renders = eevee_renders(scene, sphere, workdir, {"lookup": lookup, "normal": normals,
+                                                 "tangent": tangents})
 n = renders["normal"] * 2.0 - 1.0
 t = renders["tangent"] * 2.0 - 1.0
 on_sphere = (np.abs(np.linalg.norm(n, axis=-1) - 1.0) < 0.01) & (n[..., 2] > 0.05)
