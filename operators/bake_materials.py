@@ -105,8 +105,11 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, l
             if texture is None:
                 continue
             image, atlas_meta = texture
-            half = atlas.storage_precision(image) == "half"
-            if not half and "32-bit" not in reason:
+            # The knots' lights texture is a few KB of light directions, which a half
+            # float would move by up to 5e-4 rad (a narrow lobe's highlight): float32.
+            precise = atlas_meta.get("mode") == knot_lights.MODE
+            half = not precise and atlas.storage_precision(image) == "half"
+            if not half and not precise and "32-bit" not in reason:
                 reason += "; kept as 32-bit float (brighter than a half float's 65504)"
             atlas_meta.update({**stamp_meta, "size_reason": reason,
                                "precision": "half" if half else "float32"})

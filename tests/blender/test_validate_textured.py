@@ -141,6 +141,7 @@ def test_a_gltf_packed_material_is_followed_per_pixel_by_lookup_and_reference(
     assert bake["method"] == "3d" and bake["lights_path"].endswith("_3d_lights.exr"), bake
     assert "shaded exactly at the pixel's roughness" in bake["reason"], bake
     assert "Glossy Probe Light v4 varying" in bake["groups"], bake
+    assert bake["lights_precision"] == "float32", bake  # light directions unrounded
     notes = result["notes"]
     assert any(note.startswith("Packed: the NumPy reference follows Principled BSDF: "
                                "Metallic per pixel") for note in notes), notes

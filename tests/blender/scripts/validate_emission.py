@@ -36,6 +36,7 @@ from _operators import (  # noqa: E402
     validation_scene,
     whole_pipeline,
 )
+from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
 
 if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures before)
@@ -182,6 +183,8 @@ result_path.write_text(json.dumps({
     "spatial": sorted(parts(packed.data.materials[0]).derived.spatial),
     "packed_bake": {"method": packed.data.materials[0].glossy.method_used(),
                     "lights_path": packed.data.materials[0].glossy.runtime_path,
+                    "lights_precision": exr.read_meta(
+                        packed.data.materials[0].glossy.runtime_path).get("precision"),
                     "reason": packed.data.materials[0].glossy.size_reason,
                     "groups": sorted({node.node_tree.name for node in
                                       packed.data.materials[0].node_tree.nodes
