@@ -15,10 +15,16 @@ demo: $(STAMP)
 	$(PY) tools/demo.py
 	$(PY) tools/demo_blender.py
 
+# Two workers, one test file each at a time (module fixtures stay whole); single-threaded
+# OpenBLAS, whose idle threads would spin against the other worker. The tests that time
+# how fast a stop is (marked serial) run alone afterwards.
+TEST_WORKERS ?= 2
+
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) tools/debian_blender.py provision --if-possible
-	$(PY) -m pytest
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile -m "not serial"
+	$(PY) -m pytest -m serial
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

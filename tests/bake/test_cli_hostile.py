@@ -141,6 +141,7 @@ def test_a_glossy_sidecar_is_replaced_and_the_pair_stays_consistent(folder):
     assert exr.read_header(folder / "m.exr")  # and the map beside it is whole
 
 
+@pytest.mark.serial  # times the stop: alone, not beside another worker's renders
 def test_ctrl_c_stops_prefilter_at_once_and_leaves_nothing(tmp_path, hdri_dir):
     """SIGINT in the middle of a long filter: exit 130, one line, no file. The
     issue measured 1.6-13.8 s before this fix (convert and fit: within 0.1 s);

@@ -108,6 +108,7 @@ def test_pipeline_error_exits_non_zero_and_saves_nothing(blender_executable, ins
     assert [p.name for p in (tmp_path / "glossy").iterdir()] == ["Cube_probe.exr"]
 
 
+@pytest.mark.serial  # Esc between faces and materials: event timing, run alone
 def test_escape_in_a_live_window_cancels_and_keeps_blender_working(live_blender, installed,
                                                                    tmp_path):
     run_blender(live_blender, "--enable-event-simulate", "--python",
@@ -149,6 +150,7 @@ def test_escape_in_a_live_window_cancels_and_keeps_blender_working(live_blender,
     assert r["panel_errors"] == []
 
 
+@pytest.mark.serial  # times the stop after Esc: run alone
 def test_undo_restores_glossy_state_and_esc_stops_a_large_bake_at_once(live_blender, installed,
                                                                        tmp_path, hdri_dir):
     """Issue 15: undo after capture, bake and attach gives back the object's and
