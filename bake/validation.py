@@ -24,6 +24,14 @@ Per object, from images (H, W, 3) of the whole frame and the object's mask
 
 The truth is flagged too noisy when its noise is not below a quarter of the
 smallest error reported against it.
+
+:func:`diagnosis` says where EEVEE Glossy's error against Cycles comes from,
+from three figures the report already holds: the bake's own error (Glossy
+against the NumPy reference over the same probe), what one probe cannot hold
+(the reference against Cycles, less Cycles' noise in quadrature: the object's
+reflections of itself, occlusion, nearby objects' parallax) and Cycles' noise.
+A part is named the cause when its relative RMS is at least twice each other
+part's (then it holds at least 4/5 of their squared sum).
 """
 
 import datetime
@@ -35,8 +43,8 @@ import numpy as np
 from . import metrics, outputs, preview
 from .bitmap_font import GLYPHS, HEIGHT, WIDTH
 
-__all__ = ["evaluate_object", "ordering", "object_sheet", "write_report", "markdown",
-           "METHOD_TITLES"]
+__all__ = ["evaluate_object", "ordering", "diagnosis", "object_sheet", "write_report",
+           "markdown", "METHOD_TITLES"]
 
 METHOD_TITLES = {
     "cycles": "Cycles",
@@ -47,6 +55,9 @@ METHOD_TITLES = {
 }
 #: Noise of the truth must be below this fraction of every error reported against it.
 NOISE_FRACTION = 0.25
+#: A part of the error is its cause when at least this many times each other part
+#: (relative RMS; 2 gives it at least 4/5 of their squared sum).
+DOMINANT = 2.0
 
 
 def evaluate_object(renders: dict, mask, cycles_seeds=None, cos_view=None) -> dict:
@@ -87,7 +98,50 @@ def evaluate_object(renders: dict, mask, cycles_seeds=None, cos_view=None) -> di
     errors = [m["relative_rms"] for m in out["methods"].values()]
     out["truth_too_noisy"] = bool(out["cycles_noise"] is not None and errors
                                   and out["cycles_noise"] > NOISE_FRACTION * min(errors))
+    found = diagnosis(out)
+    if found is not None:
+        out["diagnosis"] = found
     return out
+
+
+def diagnosis(figures: dict):
+    """Where EEVEE Glossy's error against Cycles comes from (module docstring), or None
+    without a Cycles truth, Glossy's render or the NumPy reference.
+
+    Returns {"cause": "bake" | "probe" | "noise" | "mixed", "bake": relative RMS of
+    Glossy against the reference, "probe": the reference's against Cycles less
+    Cycles' noise in quadrature, "noise": Cycles' noise, "text": one sentence}.
+    """
+    methods = figures.get("methods", {})
+    if figures.get("truth") != "cycles" or "eevee_glossy" not in methods \
+            or "reference" not in methods or "glossy_vs_reference" not in figures:
+        return None
+    noise = float(figures.get("cycles_noise") or 0.0)
+    bake = float(figures["glossy_vs_reference"]["relative_rms"])
+    reference = float(methods["reference"]["relative_rms"])
+    probe = float(np.sqrt(max(reference**2 - noise**2, 0.0)))
+    parts = {"bake": bake, "probe": probe, "noise": noise}
+    cause = "mixed"
+    for name, value in parts.items():
+        if all(value >= DOMINANT * other for key, other in parts.items() if key != name):
+            cause = name
+    glossy = _percent(methods["eevee_glossy"]["relative_rms"])
+    text = {
+        "bake": f"most of Glossy's {glossy} is the bake's own error: it is {_percent(bake)} "
+                f"from the NumPy reference over the same probe, which is "
+                f"{_percent(reference)} from Cycles (a larger map, more slices, the Hybrid "
+                "or Probe Lights reduce it)",
+        "probe": f"most of Glossy's {glossy} is what one probe cannot hold: the NumPy "
+                 f"reference over the same probe is {_percent(reference)} from Cycles and "
+                 f"Glossy {_percent(bake)} from it (the object's reflections of itself, "
+                 "occlusion, nearby objects' parallax; a finer bake will not reduce it)",
+        "noise": f"most of Glossy's {glossy} is Cycles' own noise ({_percent(noise)}): "
+                 "raise the validation samples",
+        "mixed": f"Glossy's {glossy} has no single cause: the bake's own error "
+                 f"{_percent(bake)} (against the NumPy reference), what the probe cannot "
+                 f"hold {_percent(probe)}, Cycles' noise {_percent(noise)}",
+    }[cause]
+    return {"cause": cause, **parts, "text": text}
 
 
 def ordering(first: dict, second: dict, method="eevee_glossy") -> dict:
@@ -194,6 +248,10 @@ def _figure_lines(figures, title):
     if "glossy_vs_reference" in figures:
         lines.append(f"Glossy vs NumPy reference (method error): rel RMS "
                      f"{_percent(figures['glossy_vs_reference']['relative_rms'])}")
+    if "diagnosis" in figures:
+        found = figures["diagnosis"]
+        lines.append(f"Cause: {found['cause']} (bake {_percent(found['bake'])}, probe "
+                     f"{_percent(found['probe'])}, noise {_percent(found['noise'])})")
     return lines
 
 
@@ -223,6 +281,10 @@ def markdown(report: dict) -> str:
             lines.append(f"| {entry['object']} | | | reference | | Glossy vs reference | "
                          f"{_percent(g['relative_rms'])} | {g['bias']:.3f} | {g['psnr_db']:.1f}"
                          f" | {_percent(g['relative_error']['p90'])} | - |")
+    causes = [f"- {entry['object']}: {entry['figures']['diagnosis']['text']}"
+              for entry in report["objects"] if "diagnosis" in entry["figures"]]
+    if causes:
+        lines += ["", "Where the error comes from (bake.validation.diagnosis):", "", *causes]
     for entry in report["objects"]:
         lines += _by_view_lines(entry)
     return "\n".join(lines) + "\n"

@@ -30,6 +30,14 @@ def _props(layout, settings, names):
     return column
 
 
+#: The panel's line for bake.validation.diagnosis's cause (report.md has the figures).
+CAUSE_LABELS = {
+    "bake": "Mostly the bake's own error: a larger map helps",
+    "probe": "Mostly what one probe cannot hold (self-reflection, parallax)",
+    "noise": "Mostly Cycles' noise: raise the validation samples",
+    "mixed": "Bake, probe and noise alike (report.md)",
+}
+
 class _Sidebar:
     """The Glossy tab of the 3D viewport's sidebar."""
 
@@ -295,6 +303,9 @@ class GLOSSY_PT_material(bpy.types.Panel):
             box.label(text=f"Glossy vs {truth}: {100 * settings.validation_error:.1f}% RMS")
             if settings.validation_native_error >= 0:
                 box.label(text=f"EEVEE native: {100 * settings.validation_native_error:.1f}% RMS")
+            cause = CAUSE_LABELS.get(settings.validation_cause)
+            if cause:
+                box.label(text=cause, icon="INFO")
 
 
 class GLOSSY_PT_validate(_Sidebar, bpy.types.Panel):

@@ -310,6 +310,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         default=-1.0)
     validation_truth: bpy.props.StringProperty(name="Validated Against")
     validation_date: bpy.props.StringProperty(name="Validated On")
+    validation_cause: bpy.props.StringProperty(
+        name="Validation Cause", description="Where the last validation's error came from: "
+        "bake, probe, noise or mixed (bake.validation.diagnosis); empty without a Cycles truth")
     validation_bake_hash: bpy.props.StringProperty(
         name="Validated Bake", description="Bake hash at the last validation: a re-bake makes "
         "the figures stale")

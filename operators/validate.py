@@ -553,6 +553,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             settings.validation_native_error = min(natives) if natives else -1.0
             settings.validation_truth = figures["truth"]
             settings.validation_date = date
+            settings.validation_cause = figures.get("diagnosis", {}).get("cause", "")
             settings.validation_bake_hash = settings.bake_hash
 
     # --- ending ---------------------------------------------------------------

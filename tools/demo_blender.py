@@ -109,8 +109,10 @@ def main():
     print((folder / "report.md").read_text())
     for entry in report["objects"]:
         glossy_error = entry["figures"]["methods"]["eevee_glossy"]["relative_rms"]
+        cause = entry["figures"].get("diagnosis", {}).get("cause")
         print(f"{entry['object']}: Glossy {100 * glossy_error:.1f}% from "
-              f"{entry['figures']['truth']}; sheet out/demo/validation/{entry['sheet']}")
+              f"{entry['figures']['truth']}" + (f" (cause: {cause})" if cause else "")
+              + f"; sheet out/demo/validation/{entry['sheet']}")
     print(f"demo finished in {time.perf_counter() - start:.1f} s")
 
 

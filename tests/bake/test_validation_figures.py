@@ -91,3 +91,49 @@ def test_by_view_figures_are_reported_per_method_and_tabulated():
     assert "by_view" not in plain["methods"]["eevee_glossy"]
     assert "by view" not in validation.markdown({**report, "objects": [
         {**report["objects"][0], "figures": plain}]})
+
+
+def test_the_cause_of_glossy_s_error_is_named_from_the_reference_and_the_noise():
+    """diagnosis against figures computed here: each synthetic case makes one part
+    ten times the others (Cycles' noise 5% per seed, so 3.5% in the mean), and the
+    part named must be that one; where two parts are alike it says so."""
+    truth, a, b, mask = _images(3)
+    rng = np.random.default_rng(4)
+    wave = 1.0 + 0.5 * np.sin(np.arange(truth.shape[1]) / 3.0)[None, :, None]
+    scene = truth * wave  # a structured departure: what one probe cannot hold
+    noise = validation.evaluate_object({"eevee_glossy": truth, "reference": truth}, mask,
+                                       (a, b))["cycles_noise"]
+
+    def figures(glossy, reference):
+        return validation.evaluate_object({"eevee_glossy": glossy, "reference": reference},
+                                          mask, (a, b))
+
+    # The reference far from Cycles, Glossy on the reference: the probe.
+    found = figures(scene * 1.001, scene)["diagnosis"]
+    assert found["cause"] == "probe"
+    assert found["bake"] == pytest.approx(_relative_rms(scene * 1.001, scene, mask))
+    assert found["probe"] == pytest.approx(np.sqrt(
+        _relative_rms(scene, 0.5 * (a + b), mask) ** 2 - noise**2))
+    assert found["noise"] == noise
+    assert "what one probe cannot hold" in found["text"]
+    # Glossy far from a reference that sits on the truth: the bake.
+    bake = figures(scene, truth)["diagnosis"]
+    assert bake["cause"] == "bake" and "the bake's own error" in bake["text"]
+    assert bake["probe"] < 0.5 * noise  # the reference's figure is Cycles' noise alone
+    # Both on the truth (the reference exactly, Glossy within 0.2%): the noise.
+    glossy = truth * (1.0 + 0.002 * rng.standard_normal(truth.shape))
+    assert figures(glossy, truth)["diagnosis"]["cause"] == "noise"
+    # The bake and the probe alike: no single cause.
+    mixed = figures(scene * wave, scene)["diagnosis"]
+    assert mixed["cause"] == "mixed"
+    assert 0.5 < mixed["bake"] / mixed["probe"] < 2.0
+    # Reported: one line per object in report.md, one on the sheet.
+    report = {"date": "today", "resolution": [32, 24], "cycles_samples": 4, "eevee_samples": 1,
+              "objects": [{"object": "Suzanne", "material": "M", "brdf": "ggx:roughness=0.3",
+                           "figures": figures(scene * 1.001, scene)}]}
+    assert f"- Suzanne: {found['text']}" in validation.markdown(report)
+    assert any(line.startswith("Cause: probe (bake 0.1%")
+               for line in validation._figure_lines(report["objects"][0]["figures"], "S"))
+    # Without a Cycles truth there is nothing to split.
+    assert validation.diagnosis(validation.evaluate_object(
+        {"eevee_glossy": scene, "reference": truth}, mask)) is None

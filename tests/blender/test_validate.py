@@ -49,6 +49,7 @@ def test_bad_input_is_reported_and_esc_leaves_nothing(validated):
     assert result["validate"] == [["FINISHED"], ""]
     assert result["restored"], (result["before"], result["after"])
     assert result["stored"]["fresh"] and result["stale_after_rebake"]
+    assert result["stored"]["cause"] in ("bake", "probe", "noise", "mixed")  # the panel's line
 
 
 def test_report_figures_recompute_from_the_written_exrs(validated):
@@ -87,6 +88,20 @@ def test_report_figures_recompute_from_the_written_exrs(validated):
             assert band["error_share"] == pytest.approx(np.sum((t - r)[inside] ** 2) / total,
                                                         rel=1e-6, abs=1e-12)
         assert f"{entry['object']} by view elevation" in (folder / "report.md").read_text()
+        # Where the error comes from: the bake against the reference, the reference
+        # against Cycles less the noise in quadrature (bake.validation.diagnosis).
+        # reference.exr holds the float64 reference as float32: agreement to 1e-6.
+        reference = _luminance(folder / "reference.exr")[mask]
+        found = figures["diagnosis"]
+        bake = np.sqrt(np.sum((t - reference) ** 2) / np.sum(reference**2))
+        probe = np.sqrt(max(np.sum((reference - r) ** 2) / np.sum(r**2) - noise**2, 0.0))
+        assert found["bake"] == pytest.approx(bake, rel=1e-6)
+        assert found["probe"] == pytest.approx(probe, rel=1e-6, abs=1e-12)
+        parts = {"bake": bake, "probe": probe, "noise": noise}
+        leaders = [k for k, v in parts.items()
+                   if all(v >= 2 * o for key, o in parts.items() if key != k)]
+        assert found["cause"] == (leaders[0] if leaders else "mixed")
+        assert f"- {entry['object']}: {found['text']}" in (folder / "report.md").read_text()
         checked += 1
     assert checked == 1
 

@@ -133,6 +133,7 @@ material = shiny.material_slots[0].material
 result["stored"] = {"error": material.glossy.validation_error,
                     "native": material.glossy.validation_native_error,
                     "truth": material.glossy.validation_truth,
+                    "cause": material.glossy.validation_cause,
                     "fresh": material.glossy.validation_bake_hash == material.glossy.bake_hash}
 if checks:
     material.glossy.roughness = 0.35
