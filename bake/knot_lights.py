@@ -47,7 +47,7 @@ from .errors import BakeError
 from .sampling_runtime import (
     ALBEDO_MU,
     ALBEDO_SAMPLES,
-    LIGHT_TEXELS,
+    LIGHT_TEXELS_BEFORE,
     LIGHT_WIDENING,
     MIN_COS,
     _lobe_directions,
@@ -57,6 +57,9 @@ from .sampling_runtime import (
 )
 
 __all__ = ["MODE", "pack", "shade", "light_alpha", "table_index", "MIN_ROUGHNESS"]
+
+#: Texels per light: three, the direction whole (the texture is always float32).
+LIGHT_TEXELS = LIGHT_TEXELS_BEFORE
 
 MODE = "atlas_knot_lights"
 #: Texels per row of the texture (at least ALBEDO_MU).

@@ -300,13 +300,19 @@ def light_group(ax, ay, kind="ggx"):
 
 def _light_loop(b, image, meta, count):
     """(state, result, after, texels): a repeat zone summing a vector "Sum" over
-    ``count`` lights and, inside it, the iteration's light's three texels from row
-    ``meta["light_row"]`` (bake.sampling_runtime.light_texels, bake.knot_lights)."""
+    ``count`` lights and, inside it, the iteration's light's first three texels from
+    row ``meta["light_row"]`` (bake.sampling_runtime.light_texels, bake.knot_lights),
+    ``meta["light_texels"]`` (3 if absent) each. With four, the first texel is the
+    direction's half-float part and the fourth its remainder: their sum stands for
+    the first."""
+    per = int(meta.get("light_texels", 3))
     state, result, after = _repeat_zone(b, count, [("VECTOR", "Sum", (0.0, 0.0, 0.0))])
-    first = b.math("MULTIPLY", state["Iteration"], 3.0)
-    texels = tuple(_texel(b, image, meta, float(meta["light_row"]),
-                          b.math("ADD", first, float(c))) for c in range(3))
-    return state, result, after, texels
+    first = b.math("MULTIPLY", state["Iteration"], float(per))
+    texels = [_texel(b, image, meta, float(meta["light_row"]), b.math("ADD", first, float(c)))
+              for c in range(per)]
+    if per == 4:
+        texels[0] = b.vec("ADD", texels[0], texels.pop())
+    return state, result, after, tuple(texels)
 
 
 def _lights_value(b, image, meta, frame):
