@@ -26,7 +26,9 @@ whenever its values fit) keeps it to about 1e-7 rad: whole, a half float
 moves it by up to 5e-4 rad, which moved the runtime estimate by 1.5% (relative
 RMS, night.exr, GGX 0.1) and 8% (GGX 0.05) on a 48 px sphere. An atlas
 packed before stop 58 has no ``meta["light_texels"]`` and three texels per
-light (the direction whole); its readers take it so.
+light (the direction whole); its readers take it so. A stack too small for
+four texels per light keeps three, the direction whole (``meta["light_texels"]``
+3): a wide lobe's, whose texels (11 degrees at 16 rows) dwarf 5e-4 rad.
 
 Probe lights (``pack(..., lights=)``, bake.probe_lights): the level stack is
 then of the probe without its small bright lights (and the tiles of its wide
@@ -389,18 +391,25 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     # empty, the samples.
     first = count_phi + light_rows + 2
     sample_rows = -(-len(prob) // width)
-    # Then one empty row and the lights, LIGHT_TEXELS texels each (light_texels).
+    # Then one empty row and the lights, LIGHT_TEXELS texels each (light_texels); in a
+    # stack too small for that (a wide lobe's: 16 rows of 11-degree texels, where the
+    # half float's 5e-4 rad does not matter), LIGHT_TEXELS_BEFORE, the direction whole.
     light_first = first + sample_rows + 1
-    light_texel_rows = -(-LIGHT_TEXELS * len(lights) // width)
+    per = LIGHT_TEXELS
+    if lights and light_first + -(-per * len(lights) // width) > height + 1:
+        per = LIGHT_TEXELS_BEFORE
     if first + sample_rows > height + 1 or (
-            lights and light_first + light_texel_rows > height + 1):
+            lights and light_first + -(-per * len(lights) // width) > height + 1):
         raise BakeError(f"the level stack ({height} rows) is too small for {len(prob)} samples"
                         + (f" and {len(lights)} lights" if lights else ""))
     for j, ((p1, p2), q) in enumerate(zip(points, prob, strict=True)):
         extra_padded[first + j // width, 1 + j % width] = (p1, p2, q)
     for j, texels in enumerate(light_texels(lights, lobe.mx, lobe.my)):
+        if per == LIGHT_TEXELS_BEFORE:
+            whole = tuple(np.add(texels[0], texels[3]))
+            texels = (whole, texels[1], texels[2])
         for c, value in enumerate(texels):
-            t = LIGHT_TEXELS * j + c
+            t = per * j + c
             extra_padded[light_first + t // width, 1 + t % width] = value
     atlas = np.concatenate([levels, extra_padded], axis=0)
     meta.update({
@@ -413,7 +422,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         "sample_row": int(meta["slices"] * (height + 2) + first),
         "light_row": int(meta["slices"] * (height + 2) + light_first),
         "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS,
-        "light_texels": LIGHT_TEXELS, "lights": [light.to_json() for light in lights]})
+        "light_texels": per, "lights": [light.to_json() for light in lights]})
     return atlas.astype(np.float32), meta
 
 

@@ -204,6 +204,24 @@ def test_light_directions_survive_a_half_float_atlas():
     np.testing.assert_allclose(sampling_runtime.lights_of(old, before)[0], exact, atol=1e-7)
 
 
+def test_a_small_stack_keeps_three_texels_per_light(hdri_dir):
+    """A wide lobe's 16-row stack (32 texels wide) has room for forest.exr's 95
+    lights at three texels each but not four: it keeps three, the direction whole (to
+    float32), rather than refusing the bake (which it did before this fallback)."""
+    from bake import envmap, exr, probe_lights
+
+    source, _ = exr.read(hdri_dir / "forest.exr")
+    probe = envmap.convert(source, "latlong", "cube", 64)
+    residual, lights = probe_lights.extract_for(probe, "cube", 0.5 ** 2)
+    atlas, meta = sampling_runtime.pack(residual, "ggx:roughness=0.5", layout="cube",
+                                        height=16, lights=lights)
+    width = int(meta["slice_width"])
+    assert -(-4 * len(lights) // width) > -(-3 * len(lights) // width)  # the case at hand
+    assert meta["light_texels"] == 3
+    np.testing.assert_allclose(sampling_runtime.lights_of(atlas, meta)[0],
+                               [light.direction for light in lights], rtol=0, atol=1e-7)
+
+
 def test_the_samples_are_texels_of_the_atlas():
     """The nodes read sample j's disk point and probability from a texel (so that
     a loop, not an unrolled graph, visits them): the texels hold the metadata's
