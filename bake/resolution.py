@@ -30,7 +30,17 @@ falls steeply until w_eff spans about 3 texels and then wanders within
 about 15% (the sun's alignment with the texel grid), so
 TEXELS_PER_HALF_WIDTH = 4 (400 rows for the 32-px case): at Auto, doubling
 the rows changes the error by less than 1.2x (1.14x there;
-tests/bake/test_resolution.py asserts it at GGX 0.1).
+tests/bake/test_resolution.py asserts it at GGX 0.1). Measured since against
+the converged integral over anti-aliased pixels (4 x 4 sub-pixels, as a
+render averages them; pixel centres alone point-sample a sun one or two pixels
+wide): Auto over twice the rows 0.87-1.14 on 16-64 px spheres, three sun
+positions, 32-128 px probes (benchmarks/resolution_curve.py prints both).
+Where the lobe is far narrower than half a probe texel (GGX 0.05 from a 32- to
+128-px probe; Auto's probe for it is 600 px), the bilinear reconstruction's
+kink at a one-texel sun stays in the map and twice the rows can still gain:
+Auto over twice 7.1 / 4.5 (32 px probe, 16 / 28 px spheres, errors 0.40 /
+0.83%), 0.59 / 1.73 (64 px, 0.22 / 0.15%), 1.48 / 0.73 (128 px, where the
+atlas's texture limit caps Auto at 1022 rows; 1.08 / 0.82%).
 
 The probe face a lobe needs (:func:`choose_probe_face`): the larger of the
 face whose half texel is no wider than the lobe (then the lobe, not the
