@@ -22,10 +22,17 @@ def test_probe_at_volume_centroid_equals_camera_renders(tmp_path, hdri_dir):
     assert result["meta"]["centre_mode"] == "VOLUME"
     assert np.linalg.norm(np.subtract(result["centre"], result["bbox_centre"])) > 0.1
     # Each face equals a render by an independent camera at that point, compared
-    # through that camera's own rays: the same pixel centres, rendered with one
-    # sample and a 0.01 px filter (the jitter changes values by ~1e-5).
-    assert result["face_median_relative_difference"] < 1e-3
-    assert result["face_p99_relative_difference"] < 1e-2
+    # through that camera's own rays, rendered with the capture's Cycles settings
+    # (glossy_addon.capture.cycles_face_settings: texel averages through a 1 px box
+    # filter, at least 2716 samples per texel of a 16 px face). The two cameras'
+    # pixels take different sample patterns, so the texels differ by the noise of
+    # that many samples: texels that an emissive block's edge crosses most (p99
+    # measured 0.013; a face shifted by half a texel moves those by tens of percent,
+    # and a wrong orientation moves the median to order 1).
+    assert result["face_median_relative_difference"] < 1e-3, result
+    assert result["face_p99_relative_difference"] < 0.05, result
+    # The scene's own settings are back (exact_cycles: one sample, a 0.01 px filter).
+    assert result["cycles_after"] == ["BLACKMAN_HARRIS", 0.01, 1, False]
     # Blender's state is restored: no temporary camera, the object visible again.
     assert result["objects_after"] == ["Cone", "Cube", "Cube.001", "Cube.002", "Cube.003"]
     assert result["cone_hidden_after"] is False and result["camera_after"] is True
@@ -93,3 +100,22 @@ def test_validation_sees_unselected_lookups_as_their_true_bsdfs(lookup_scene):
     assert lookup["reference"] == pytest.approx(by_hand["reference"], rel=1e-6)
     assert lookup["slot_after"] == "B glossy"
     assert result["truths_left_after_validate"] == []
+
+
+def test_a_sun_far_smaller_than_a_texel_keeps_its_energy(tmp_path):
+    """A Render Scene probe of a world whose 0.5-degree sun holds 3/4 of its energy (the
+    Sky Texture's sun is 0.545 degrees; a 16 px face's texel is 5.6), captured with the
+    default Samples: the probe's energy (texel radiance times solid angle, summed) is
+    the image's within 15%. The capture's floor of samples per face puts about 20
+    samples on the disc (glossy_addon.capture.MIN_FACE_SAMPLES): over Cycles seeds
+    0-5 the 16 / 32 px probes were -2.3..0% / -7.5..+1.8% off; 15% is twice the
+    worst. With the user's 32 samples through the scene's 1.5 px pixel filter they
+    were -75% (the sun missed) and +49%. The scene's own Cycles settings are back
+    after each capture."""
+    result = run_script("capture_small_sun.py", ROOT, tmp_path, tmp_path / "r.json")
+    assert result["sun_share"] == pytest.approx(0.75, abs=1e-6)
+    assert result["samples"] == 32  # the default
+    for face in (16, 32):
+        assert result[f"status_{face}"] == ["FINISHED"]
+        assert result[f"energy_{face}"] == pytest.approx(result["image_energy"], rel=0.15), face
+    assert result["filter_after"] == result["filter_before"] == ["BLACKMAN_HARRIS", 1.5, 4096]

@@ -21,6 +21,7 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
 from glossy.bake import envmap, exr  # noqa: E402
+from glossy.glossy_addon.capture import cycles_face_settings  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world, exact_cycles, float_exr_output  # noqa: E402
 from mathutils import Matrix, Vector  # noqa: E402
 
@@ -75,6 +76,8 @@ report = {
     "origin": list(cone.matrix_world.translation),
     "cone_hidden_after": cone.hide_render, "camera_after": scene.camera is None,
     "objects_after": sorted(o.name for o in bpy.data.objects),
+    "cycles_after": [scene.cycles.pixel_filter_type, round(scene.cycles.filter_width, 6),
+                     scene.cycles.samples, scene.cycles.use_adaptive_sampling],
 }
 
 # Reference renders: a separate camera at the centre, looking along each axis
@@ -87,6 +90,10 @@ camera = bpy.data.objects.new("reference", camera_data)
 scene.collection.objects.link(camera)
 scene.camera = camera
 float_exr_output(scene, 16)
+# The capture's own Cycles settings (texel averages through a 1 px box filter, its
+# floor of samples per face, adaptive sampling), restored by the capture above.
+for name, value in cycles_face_settings(settings.capture_samples, 16).items():
+    setattr(scene.cycles, name, value)
 cube = envmap.get_layout("cube")
 differences = []
 for axis in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:

@@ -1,0 +1,74 @@
+"""glossy.capture_probes (Render Scene, Cycles) of a world with a sun far smaller than
+a probe texel: the probe must hold the world's energy.
+
+    python capture_small_sun.py REPO WORKDIR RESULT.json
+
+The world is a lat-long image made here: a constant sky of 0.05 and a disc of 0.5
+degrees (Blender's Sky Texture draws a 0.545 degree sun) holding three times the
+sky's energy, read with Closest interpolation so that its energy is exactly the sum
+over its texels. Captures at 16 and 32 px faces with the default Samples (32)
+record the probe's energy, the sum over its texels of radiance times solid angle,
+against the image's.
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+repo, workdir, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
+import bpy  # noqa: E402
+import glossy  # noqa: E402
+from glossy.bake import envmap, exr  # noqa: E402
+from glossy.glossy_addon.scenes import environment_world  # noqa: E402
+
+workdir.mkdir(parents=True, exist_ok=True)
+latlong = envmap.get_layout("latlong")
+shape = (512, 1024)
+directions = latlong.texel_directions(shape)
+solid = latlong.solid_angles(shape)
+elevation, azimuth = math.radians(30.0), math.radians(40.0)
+sun = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth),
+                math.sin(elevation)])
+inside = directions @ sun > math.cos(math.radians(0.25))
+sky = 0.05
+image = np.full((*shape, 3), sky, np.float32)
+sky_energy = float(sky * solid.sum())
+image[inside] = sky + 3.0 * sky_energy / float(solid[inside].sum())
+exr.write(workdir / "small_sun.exr", image)
+energy = float((image[..., 0] * solid).sum())
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glossy.register()
+scene = bpy.context.scene
+scene.render.engine = "CYCLES"
+scene.cycles.device = "CPU"
+scene.cycles.seed = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+node = environment_world(scene, workdir / "small_sun.exr")
+node.interpolation = "Closest"
+bpy.ops.mesh.primitive_uv_sphere_add(location=(0.0, 0.0, 0.0))
+ball = bpy.context.object
+ball.glossy.probe_source = "RENDER"
+ball.glossy.probe_size_mode = "FIXED"
+ball.glossy.capture_engine = "CYCLES"
+bpy.ops.object.select_all(action="DESELECT")
+ball.select_set(True)
+bpy.context.view_layer.objects.active = ball
+bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
+cube = envmap.get_layout("cube")
+report = {"sun_texels": int(inside.sum()), "image_energy": energy,
+          "sun_share": 1.0 - sky_energy / energy, "samples": ball.glossy.capture_samples,
+          "filter_before": [scene.cycles.pixel_filter_type, scene.cycles.filter_width,
+                            scene.cycles.samples]}
+for face in (16, 32):
+    ball.glossy.probe_resolution = face
+    report[f"status_{face}"] = sorted(bpy.ops.glossy.capture_probes())
+    probe, _ = exr.read(ball.glossy.probe_path)
+    report[f"energy_{face}"] = float((probe[..., 0] * cube.solid_angles(probe.shape[:2])).sum())
+report["filter_after"] = [scene.cycles.pixel_filter_type, scene.cycles.filter_width,
+                          scene.cycles.samples]
+with open(result_path, "w") as handle:
+    json.dump(report, handle)
