@@ -87,10 +87,14 @@ def test_world_only_probes_match_cycles_for_turned_and_brightened_worlds(extensi
     assert visibility["capture"] == ["FINISHED"]
     seen, _ = exr.read(visibility["probes"]["cycles"])
     plain_cycles, _ = exr.read(r["variants"]["plain"]["probes"]["cycles"])
-    assert seen.max() > 50.0 > plain_cycles.max()
     n = seen.shape[0]
     faces = {name: seen[:, k * n:(k + 1) * n]
              for k, name in enumerate(("+x", "-x", "+z", "-z", "-y", "+y"))}
+    # The glossy-only cube (emission strength 100, white) covers the middle ninth of
+    # the +X face: the texels there are its radiance (texel averages since stop 59;
+    # the world's sun may be brighter than 100 in a texel, so no maximum is compared).
+    middle = faces["+x"][n // 2 - 2:n // 2 + 2, n // 2 - 2:n // 2 + 2]
+    np.testing.assert_allclose(middle, 100.0, rtol=0.02)
     # The point lamp at +Y (1000 W, radius 0.25) stays out: lamps are shaded by
     # the lamp path (glossy_addon.lamps), so in the probe they would count twice.
     np.testing.assert_allclose(faces["+y"].max(), plain_cycles[:, 5 * n:].max(), rtol=0.1)
