@@ -64,16 +64,17 @@ def lookup_truths(scene, hidden=()):
 #: 0.5 degrees (7.1e-5 sr; the Sky Texture's default sun is 0.545) inside a texel at
 #: a face's centre, (pi / 2 / size)^2 sr, the coarsest, is hit by SUN_HITS samples on
 #: average when the face takes SUN_HITS (pi / 2)^2 / 7.1e-5 samples, whatever its
-#: size: 2716 per texel at 16 px faces, 170 at 64, 43 at 128. A 0.5 degree disc
+#: size: 1358 per texel at 16 px faces, 85 at 64, 22 at 128. A 0.5 degree disc
 #: holding 3/4 of a world's energy (tests/blender/test_capture_probes.py) came out
 #: of 16 / 32 px Render Scene probes at -75% / +49% of its energy with the user's
-#: 32 samples and the scene's pixel filter, -11.4% / -1.8% at 10 hits, -1.4% /
-#: -3.3% at 20, -1.0% / -2.2% at 40.
-SUN_HITS = 20
+#: 32 samples and the scene's pixel filter; with these settings -5.1..+2.6% /
+#: -7.6..+1.4% over Cycles seeds 0-5 (20 hits and adaptive sampling up to 4x:
+#: -2.3..0% / -7.5..+1.8%, for captures up to 2.4x as long as 10 and 2x).
+SUN_HITS = 10
 MIN_FACE_SAMPLES = math.ceil(SUN_HITS * (math.pi / 2) ** 2 / 7.1e-5)
 #: Cycles' adaptive sampling may take a texel that is still noisy to this many times
 #: the minimum, at Cycles' own default noise threshold.
-ADAPTIVE_FACTOR = 4
+ADAPTIVE_FACTOR = 2
 ADAPTIVE_THRESHOLD = 0.01
 
 
@@ -92,7 +93,7 @@ def cycles_face_settings(samples: int, size: int) -> dict:
     A Multiple Scattering sky with its sun at 25 degrees, Principled metal 0.25,
     88 px faces (docs/HISTORY.md, stop 59): Glossy 36.4% from Cycles with the
     user's 32 samples through the scene's filter, 18.9% with the box filter alone,
-    8.6% with these settings (native EEVEE 98.7%)."""
+    9.2% with these settings (native EEVEE 98.7%)."""
     floor = max(int(samples), math.ceil(MIN_FACE_SAMPLES / int(size) ** 2))
     return {"pixel_filter_type": "BOX", "filter_width": 1.0,
             "use_adaptive_sampling": True, "adaptive_threshold": ADAPTIVE_THRESHOLD,

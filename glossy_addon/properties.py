@@ -87,7 +87,7 @@ class GlossyObjectSettings(bpy.types.PropertyGroup):
     capture_samples: bpy.props.IntProperty(
         name="Samples", description="Render samples per texel, at least: a Cycles capture "
         "raises them on small faces so that a sun smaller than a texel is found, and adaptive "
-        "sampling adds up to 4x where a texel is still noisy", default=32, min=1, max=65536,
+        "sampling adds up to 2x where a texel is still noisy", default=32, min=1, max=65536,
     )
     clip_start: bpy.props.FloatProperty(name="Clip Start", default=0.01, min=1e-6,
                                         subtype="DISTANCE")
