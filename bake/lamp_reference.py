@@ -331,7 +331,8 @@ def _extended(model, lamp, points, frames, wo_local, pixels, samples, unblocked=
         weight = np.where(keep, local[..., 2] / np.where(keep, density, 1.0), 0.0)
         if unblocked is not None:
             weight = weight * unblocked(points, wi, np.where(keep, emitter.distance(wi), 0.0))
-        total += np.sum(model.f(local, wo) * radiance_in * weight[..., None], axis=1)
+        value = model.f(local, wo_local[:, None, :])  # the view's terms once per pixel
+        total += np.sum(value * radiance_in * weight[..., None], axis=1)
     return total
 
 

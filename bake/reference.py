@@ -336,8 +336,7 @@ def _evaluate(model, frames, wo_local, directions, flux, pixel):
         wi[..., i] = (frame[:, None, i, 0] * directions[..., 0]
                       + frame[:, None, i, 1] * directions[..., 1]
                       + frame[:, None, i, 2] * directions[..., 2])
-    wo = np.broadcast_to(wo_local[pixel][:, None, :], wi.shape)
-    values = model.f(wi, wo)
+    values = model.f(wi, wo_local[pixel][:, None, :])  # view terms once per pair
     values *= np.maximum(wi[..., 2:3], 0.0)
     values *= flux
     return values.sum(axis=1), values
@@ -558,7 +557,7 @@ def _core_quadrature(model, layout, core, frames, wo_local, mirror, radius):
     share = _core_share(layout.directions(col + 0.5, row + 0.5, core.grid_shape), mirror, radius)
     keep = (share > 0.0) & (density > 0.0) & (local[..., 2] > 0.0)
     weight = share * local[..., 2] / np.where(keep, density, 1.0)
-    value = model.f(local, wo) * weight[..., None]
+    value = model.f(local, wo_local[:, None, :]) * weight[..., None]  # view terms once
     value *= np.asarray(core.sampler(world), dtype=np.float64)
     return np.where(keep[..., None], value, 0.0).sum(axis=1)
 

@@ -108,7 +108,7 @@ def write_wrappers(home: Path = HOME) -> Path:
 
 
 def provision(home: Path = HOME, log=print) -> Path:
-    """Make the chroot once (about a minute, 2 GB) and return the wrapper's path."""
+    """Make the chroot once (about a minute, 1.4 GB) and return the wrapper's path."""
     root = home / "root"
     stamp = home / "ready"
     if stamp.exists() and stamp.read_text().strip() == STAMP:
@@ -142,6 +142,10 @@ def provision(home: Path = HOME, log=print) -> Path:
             last = error
     else:
         raise last
+    # The downloaded packages and the archive's indexes are not needed to run
+    # Blender: dropping them keeps the chroot about 0.45 GB smaller (CI's disk).
+    _chroot_apt(partial, "clean")
+    shutil.rmtree(partial / "var" / "lib" / "apt" / "lists", ignore_errors=True)
     partial.rename(root)
     wrapper = write_wrappers(home)
     check = subprocess.run([str(wrapper), "--version"], capture_output=True, text=True)

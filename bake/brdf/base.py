@@ -111,14 +111,18 @@ class BRDF:
 
     # --- evaluation --------------------------------------------------------
     def f(self, wi, wo) -> np.ndarray:
-        """f_r(wi, wo), (..., 3) float64; 0 where wi or wo is below the horizon."""
+        """f_r(wi, wo), (..., 3) float64; 0 where wi or wo is below the horizon.
+
+        wi and wo broadcast against each other; ``_f`` gets them as given, so
+        terms of one direction alone (a view's Fresnel and energy tables, say)
+        are computed once per view when wo is (M, 1, 3) against wi (M, K, 3)."""
         wi = np.asarray(wi, dtype=np.float64)
         wo = np.asarray(wo, dtype=np.float64)
-        wi, wo = np.broadcast_arrays(wi, wo)
+        shape = np.broadcast_shapes(wi.shape, wo.shape)
         above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
         with np.errstate(all="ignore"):
             value = np.asarray(self._f(wi, wo), dtype=np.float64)
-        value = np.broadcast_to(value, wi.shape)
+        value = np.broadcast_to(value, shape)
         return np.where(above[..., None] & np.isfinite(value), value, 0.0)
 
     def _f(self, wi, wo):

@@ -134,3 +134,26 @@ def test_importance_sampling_agrees_with_uniform_sampling(spec):
     a, b = importance.mean(0), uniform.mean(0)
     sigma = np.sqrt(importance.var(0) / n + uniform.var(0) / n)
     assert np.all(np.abs(a - b) <= 5 * sigma + 1e-4), (spec, a, b, sigma)
+
+
+@pytest.mark.parametrize("spec", SPECS + [
+    "principled:base_color=0.9/0.5/0.2,metallic=0.4,roughness=0.3,anisotropy=0.5,rotation=0.2,"
+    "coat_weight=0.8,coat_roughness=0.05,coat_tint=0.9/0.6/0.3"])
+def test_a_view_given_once_for_many_lights_is_the_same_as_one_view_per_light(spec):
+    # BRDF.f hands wi (M, K, 3) and wo (M, 1, 3) to the model unbroadcast, so terms of
+    # the view alone are computed once per view (the reference renderer's speed):
+    # the values must be those of wo repeated per light, bit for bit, and both
+    # directions below the horizon must still give 0.
+    model = brdf.parse(spec)
+    rng = np.random.default_rng(4)
+    wi = rng.normal(size=(50, 6, 3))
+    wo = rng.normal(size=(50, 1, 3))
+    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    once = model.f(wi, wo)
+    repeated = model.f(wi, np.repeat(wo, 6, axis=1))
+    assert once.shape == (50, 6, 3)
+    np.testing.assert_array_equal(once, repeated)
+    below = (wi[..., 2] <= 0) | (wo[..., 2] <= 0)
+    assert below.any() and not np.any(once[below])
+    assert np.any(once[~below])
