@@ -115,6 +115,16 @@ class CubeCapture:
     plain colour (a Mix Shader on Light Path's Is Camera Ray) shows the probe
     what reflections see (world.CameraRayMixesOpen), and camera rays get the
     world's and objects' glossy ray visibility for the capture.
+
+    An EEVEE capture renders the scene over a transparent film and composites
+    the world behind it, resampled from its image as World Only resamples it
+    (world.world_cube: each texel the mean over its solid angle), where the
+    film's alpha shows sky: EEVEE draws the world at each pixel's centre, so a
+    sun smaller than a texel was missed or caught whole by chance (a 0.5 degree
+    disc holding 3/4 of a world's energy came out at -75% / -34% of it on 16 /
+    32 px faces). A world World Only cannot read (a procedural sky, a texture
+    through other nodes) or one hidden from glossy rays is rendered as before;
+    ``world_note`` says which.
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
@@ -148,6 +158,10 @@ class CubeCapture:
                                      cycles_face_settings(self.samples, self.size)}
         else:
             self._saved["samples"] = scene.eevee.taa_render_samples
+        # Before CameraRayMixesOpen cuts the world's Is Camera Ray links, which
+        # world_environment follows to the shader reflections see.
+        self.world_faces, self.world_note = (None, "rendered by Cycles") \
+            if self.engine == "CYCLES" else self._world_behind(scene)
         data = bpy.data.cameras.new("Glossy probe camera")
         data.type = "PERSP"
         data.sensor_fit = "AUTO"
@@ -160,10 +174,10 @@ class CubeCapture:
         render.resolution_x = render.resolution_y = self.size
         render.resolution_percentage = 100
         render.pixel_aspect_x = render.pixel_aspect_y = 1.0
-        render.film_transparent = False
+        render.film_transparent = self.world_faces is not None
         settings.file_format = "OPEN_EXR"
         settings.color_depth = "32"
-        settings.color_mode = "RGB"
+        settings.color_mode = "RGB" if self.world_faces is None else "RGBA"
         settings.exr_codec = "ZIP"  # lossless, and what bake.exr_codec reads
         if self.engine == "CYCLES":
             # A denoiser changes radiance (and may be missing from the build).
@@ -181,6 +195,21 @@ class CubeCapture:
         self._world_mixes = CameraRayMixesOpen(scene.world).__enter__()
         self._visibility = self._as_glossy_rays(scene)
         return self
+
+    def _world_behind(self, scene):
+        """(world cube (size, 6 size, 3) or None, note): what an EEVEE capture
+        composites behind the scene (the class docstring)."""
+        from .world import WorldNotReadable, world_cube
+
+        world = scene.world
+        if world is None:
+            return None, "no world"
+        if not world.cycles_visibility.glossy:
+            return None, "the world is hidden from glossy rays: rendered by EEVEE"
+        try:
+            return world_cube(world, self.size), "the world's image composited behind the scene"
+        except (WorldNotReadable, ValueError) as error:
+            return None, f"the world rendered by EEVEE ({error})"
 
     def _as_glossy_rays(self, scene):
         """Give camera rays the visibility glossy rays have (the world's and each
@@ -212,7 +241,14 @@ class CubeCapture:
         self.scene.render.filepath = str(path)
         bpy.ops.render.render(write_still=True, scene=self.scene.name)
         image, _ = exr.read(path, nonfinite="sanitize")
-        return np.ascontiguousarray(image[:, ::-1, :3])
+        image = image[:, ::-1]
+        if self.world_faces is None:
+            return np.ascontiguousarray(image[..., :3])
+        # Blender's film holds premultiplied colour: the scene over the world.
+        size = self.size
+        behind = self.world_faces[:, face * size:(face + 1) * size]
+        sky = np.clip(1.0 - image[..., 3:4], 0.0, 1.0)
+        return np.ascontiguousarray(image[..., :3] + sky * behind, dtype=np.float32)
 
     def __exit__(self, *exc):
         scene = self.scene

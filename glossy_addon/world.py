@@ -242,6 +242,41 @@ def world_environment(world):
         raise WorldNotReadable(str(error)) from None
 
 
+def world_cube(world, size: int) -> np.ndarray:
+    """(size, 6 size, 3) float32: the world resampled to a Glossy cube (DESIGN.md's
+    layout) as Cycles shows it to reflection rays: its Environment Texture's image
+    (:func:`world_pixels`) through the Mapping node, times the Background's
+    Strength, each texel the mean radiance over its solid angle
+    (bake.envmap.convert), so a sun far smaller than a texel keeps its energy.
+    Raises WorldNotReadable for a world :func:`world_environment` cannot read.
+
+    The last cube made is kept for the session while its image is unedited
+    (:func:`_pixels_signature`), with the same Mapping, Strength and size: an EEVEE
+    capture in the UI asks once per face. Each call returns its own copy."""
+    import json
+
+    from ..bake import envmap
+
+    image, mapping = world_environment(world)
+    signature = _pixels_signature(image)
+    key = None if signature is None else \
+        (signature, json.dumps(mapping.to_meta(), sort_keys=True), int(size))
+    if key is not None and _CUBE[0] == key:
+        return _CUBE[1].copy()
+    transform = mapping.texture_directions if mapping.moves_directions else None
+    pixels = world_pixels(image)
+    world_digest(image, pixels)  # kept for the probe's metadata and the bake (unchanged image)
+    cube = envmap.convert(pixels, "latlong", "cube", int(size), transform=transform)
+    if mapping.strength != 1.0:
+        cube *= np.float32(mapping.strength)
+    _CUBE[:] = [key, cube.copy()] if key is not None else [None, None]
+    return cube
+
+
+#: The last world cube :func:`world_cube` made: (key, cube).
+_CUBE: list = [None, None]
+
+
 class CameraRayMixesOpen:
     """For a capture: the world's Mix Shaders driven by Light Path's Is Camera Ray
     show their first shader, as they do to every ray a probe stands for.

@@ -6,7 +6,7 @@ import time
 import bpy
 import numpy as np
 
-from ..bake import envmap, exr, lobes, probe_detail, resolution, sampling_runtime
+from ..bake import exr, lobes, probe_detail, resolution, sampling_runtime
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps
 from ..glossy_addon import ownership
@@ -18,6 +18,7 @@ from ..glossy_addon.progress import BlenderProgress
 from ..glossy_addon.world import (
     WorldNotReadable,
     find_environment_image,
+    world_cube,
     world_digest,
     world_environment,
     world_pixels,
@@ -143,6 +144,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         The face size and its reason per object go to ``self._faces_chosen``."""
         depsgraph = context.evaluated_depsgraph_get()
         self._faces_chosen = {}
+        self._world_notes = {}
         self._details = {}
         self._detail_cache = {}
         plan = []
@@ -200,6 +202,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                 "source": settings.probe_source, "engine": settings.capture_engine,
                 "samples": settings.capture_samples, "time": time.time()}
         meta["size_reason"] = self._faces_chosen[name][1]
+        if name in self._world_notes:  # a rendered probe: how its sky was made
+            meta["world"] = self._world_notes[name]
         if settings.probe_source == "WORLD":  # the Mapping and Strength it was resampled with
             image, mapping = world_environment(context.scene.world)
             meta["world_mapping"] = mapping.to_meta()
@@ -217,14 +221,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
     def _world_cube(self, context, size):
         """The world resampled to a cube of ``size`` px faces as Cycles shows it: its
         Environment Texture's image through the Mapping node and Strength."""
-        image, mapping = world_environment(context.scene.world)
-        transform = mapping.texture_directions if mapping.moves_directions else None
-        pixels = world_pixels(image)
-        world_digest(image, pixels)  # kept for _finish and the bake (unchanged image)
-        cube = envmap.convert(pixels, "latlong", "cube", size, transform=transform)
-        if mapping.strength != 1.0:
-            cube *= np.float32(mapping.strength)
-        return cube
+        return world_cube(context.scene.world, size)
 
     def _capture(self, context, name):
         obj = bpy.data.objects[name]
@@ -252,6 +249,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
                     else:
                         result = []
                         with self._capture(context, name) as capture:
+                            self._world_notes[name] = capture.world_note
                             for face in range(6):
                                 progress((index * 6 + face) / (6 * len(plan)),
                                          f"{name}: face {face + 1}/6")
@@ -291,6 +289,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             result = self._world_cube(context, self._faces_chosen[name][0])
         else:
             with self._capture(context, name) as capture:
+                self._world_notes[name] = capture.world_note
                 self._faces.setdefault(index, []).append(capture.render_face(face))
             if face < 5:
                 return f"{name}: face {face + 1}/6"

@@ -119,3 +119,39 @@ def test_a_sun_far_smaller_than_a_texel_keeps_its_energy(tmp_path):
         assert result[f"status_{face}"] == ["FINISHED"]
         assert result[f"energy_{face}"] == pytest.approx(result["image_energy"], rel=0.15), face
     assert result["filter_after"] == result["filter_before"] == ["BLACKMAN_HARRIS", 1.5, 4096]
+
+
+def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
+    """The same world captured with EEVEE (2 samples), with an emitting cube of radiance
+    7 (edge 1) at (4, 1.2, 0.8), off the +X face's centre, in front of the sky. EEVEE
+    draws the world at each pixel's centre, so before the capture composited the
+    world behind the scene the 0.5-degree sun came out at -75% / -34% of the world's
+    energy on 16 / 32 px faces (docs/HISTORY.md, stop 60). Now every texel whose
+    direction is more than the cube's bounding sphere (asin(0.866 / 4.47), 11.2
+    degrees) plus two texels (90 / N degrees each: EEVEE's 1.5 px pixel filter) from
+    the cube's is the World Only cube of the same world
+    (glossy_addon.world.world_cube) to float32 rounding (a face turned or mirrored
+    would move the cube's texels out of that cone), whose energy is the image's
+    within 1.3% / 0.3% (bake.envmap.convert's area sums; 3% bounds both); and the
+    cube stays in front of the world: the texels within 4 degrees of its direction
+    read its radiance, 7, within 1%."""
+    from bake.envmap import get_layout
+
+    result = run_script("capture_small_sun.py", ROOT, tmp_path, 0, "BLENDER_EEVEE",
+                        tmp_path / "r.json")
+    cube = get_layout("cube")
+    centre = np.array([4.0, 1.2, 0.8])
+    radius = np.degrees(np.arcsin(0.5 * np.sqrt(3.0) / np.linalg.norm(centre)))
+    for face in (16, 32):
+        assert result[f"status_{face}"] == ["FINISHED"]
+        assert result[f"meta_world_{face}"] == "the world's image composited behind the scene"
+        probe, world = np.array(result[f"probe_{face}"]), np.array(result[f"world_{face}"])
+        assert probe.shape == world.shape == (face, 6 * face)
+        directions = cube.texel_directions(probe.shape)
+        angle = np.degrees(np.arccos(np.clip(directions @ (centre / np.linalg.norm(centre)),
+                                             -1.0, 1.0)))
+        outside = angle > radius + 2 * 90.0 / face
+        assert np.allclose(probe[outside], world[outside], rtol=1e-6, atol=0.0), face
+        assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01), face
+        energy = float((world * cube.solid_angles(world.shape)).sum())
+        assert energy == pytest.approx(result["image_energy"], rel=0.03), face

@@ -24,11 +24,13 @@ def assert_captures_match_the_world(result):
     for engine in ("cycles", "eevee"):
         image, meta = exr.read(result["probes"][engine])
         assert image.shape == world.shape == (32, 192, 3)
-        # The world resample averages each texel's solid angle exactly; a render
-        # filters with its pixel filter (Cycles: 1.5 px Blackman-Harris, 16 spp;
-        # EEVEE: mip-mapped texture lookups). On 4 x 4 texel blocks those
-        # differences fall to ~1-2 % (median) in forest.exr's foliage; a face
-        # turned or mirrored gives ~85 %.
+        # The world resample averages each texel's solid angle exactly; a Cycles
+        # render filters with its pixel filter (1.5 px Blackman-Harris, 16 spp).
+        # On 4 x 4 texel blocks those differences fall to ~1-2 % (median) in
+        # forest.exr's foliage; a face turned or mirrored gives ~85 %. An EEVEE
+        # capture composites this same resample behind the scene (here empty),
+        # so its faces' orientation is tested with an object in front
+        # (test_capture_probes: an EEVEE capture composites the world).
         relative = np.abs(_box(image) - _box(world)) / np.maximum(_box(world), 1e-3)
         assert np.median(relative) < 0.04, (engine, np.median(relative))
         assert abs(image.mean() / world.mean() - 1.0) < 0.03, engine

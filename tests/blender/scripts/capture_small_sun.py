@@ -1,7 +1,7 @@
 """glossy.capture_probes (Render Scene, Cycles) of a world with a sun far smaller than
 a probe texel: the probe must hold the world's energy.
 
-    python capture_small_sun.py REPO WORKDIR RESULT.json
+    python capture_small_sun.py REPO WORKDIR [SEED [ENGINE]] RESULT.json
 
 The world is a lat-long image made here: a constant sky of 0.05 and a disc of 0.5
 degrees (Blender's Sky Texture draws a 0.545 degree sun) holding three times the
@@ -9,6 +9,12 @@ sky's energy, read with Closest interpolation so that its energy is exactly the 
 over its texels. Captures at 16 and 32 px faces with the default Samples (32)
 record the probe's energy, the sum over its texels of radiance times solid angle,
 against the image's.
+
+ENGINE BLENDER_EEVEE captures with EEVEE at 2 samples (software GL is slow) and
+adds an emitting cube of radiance 7 (edge 1) at (4, 1.2, 0.8), so the probe must
+keep the scene in front of the world it composites: the script also records the
+World Only cube of the same world (glossy_addon.world.world_cube) and the probe's
+texels (red channel).
 """
 
 import json
@@ -18,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-repo, workdir, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+repo, workdir, result_path = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[-1]
+options = sys.argv[3:-1]  # [SEED [ENGINE]]
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 import glossy  # noqa: E402
@@ -46,14 +53,27 @@ glossy.register()
 scene = bpy.context.scene
 scene.render.engine = "CYCLES"
 scene.cycles.device = "CPU"
-scene.cycles.seed = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+scene.cycles.seed = int(options[0]) if options else 0
 node = environment_world(scene, workdir / "small_sun.exr")
 node.interpolation = "Closest"
 bpy.ops.mesh.primitive_uv_sphere_add(location=(0.0, 0.0, 0.0))
 ball = bpy.context.object
 ball.glossy.probe_source = "RENDER"
 ball.glossy.probe_size_mode = "FIXED"
-ball.glossy.capture_engine = "CYCLES"
+engine = options[1] if len(options) > 1 else "CYCLES"
+GLOW_CENTRE = (4.0, 1.2, 0.8)  # off the +X face's centre: a turned or mirrored face shows
+ball.glossy.capture_engine = engine
+if engine != "CYCLES":
+    ball.glossy.capture_samples = 2
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=GLOW_CENTRE)
+    lamp_cube = bpy.context.object
+    glow = bpy.data.materials.new("glow")
+    glow.use_nodes = True
+    emission = glow.node_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 7.0
+    glow.node_tree.links.new(emission.outputs[0],
+                             glow.node_tree.nodes["Material Output"].inputs["Surface"])
+    lamp_cube.data.materials.append(glow)
 bpy.ops.object.select_all(action="DESELECT")
 ball.select_set(True)
 bpy.context.view_layer.objects.active = ball
@@ -68,6 +88,13 @@ for face in (16, 32):
     report[f"status_{face}"] = sorted(bpy.ops.glossy.capture_probes())
     probe, _ = exr.read(ball.glossy.probe_path)
     report[f"energy_{face}"] = float((probe[..., 0] * cube.solid_angles(probe.shape[:2])).sum())
+    report[f"meta_world_{face}"] = exr.read_meta(ball.glossy.probe_path).get("world")
+    if engine != "CYCLES":
+        from glossy.glossy_addon.world import world_cube
+
+        world = world_cube(scene.world, face)
+        report[f"probe_{face}"] = probe[..., 0].tolist()
+        report[f"world_{face}"] = world[..., 0].tolist()
 report["filter_after"] = [scene.cycles.pixel_filter_type, scene.cycles.filter_width,
                           scene.cycles.samples]
 with open(result_path, "w") as handle:
