@@ -122,13 +122,18 @@ class CubeCapture:
     film's alpha shows sky: EEVEE draws the world at each pixel's centre, so a
     sun smaller than a texel was missed or caught whole by chance (a 0.5 degree
     disc holding 3/4 of a world's energy came out at -75% / -34% of it on 16 /
-    32 px faces). A world World Only cannot read (a procedural sky, a texture
-    through other nodes) or one hidden from glossy rays is rendered as before;
-    ``world_note`` says which.
+    32 px faces). A world World Only cannot read (a Sky Texture, an image
+    through other nodes) is rendered alone by Cycles from the same point, every
+    object hidden, with the sample floor of :func:`cycles_face_settings`, and
+    composited the same way (``world_cache``: a dict the caller keeps across
+    the captures of one run, so that one probe's world is rendered once however
+    many CubeCaptures render its faces). A world hidden from glossy rays is
+    drawn by EEVEE as before. ``world_note`` says which.
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
-                 clip_end=1000.0, hidden=()):
+                 clip_end=1000.0, hidden=(), world_cache=None):
+        self.world_cache = {} if world_cache is None else world_cache
         self.scene = scene
         self.centre = Vector(centre)
         self.size = int(size)
@@ -209,7 +214,16 @@ class CubeCapture:
         try:
             return world_cube(world, self.size), "the world's image composited behind the scene"
         except (WorldNotReadable, ValueError) as error:
-            return None, f"the world rendered by EEVEE ({error})"
+            reason = str(error)
+        key = (tuple(round(c, 9) for c in self.centre), self.size, self.samples, self.clip)
+        if key not in self.world_cache:
+            alone = [obj for obj in scene.objects if not obj.hide_render]
+            with CubeCapture(scene, self.centre, self.size, "CYCLES", self.samples,
+                             *self.clip, hidden=alone) as capture:
+                self.world_cache[key] = np.concatenate(
+                    [capture.render_face(face) for face in range(6)], axis=1)
+        return self.world_cache[key], \
+            f"the world rendered alone by Cycles, composited behind the scene ({reason})"
 
     def _as_glossy_rays(self, scene):
         """Give camera rays the visibility glossy rays have (the world's and each

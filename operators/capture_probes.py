@@ -145,6 +145,7 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         depsgraph = context.evaluated_depsgraph_get()
         self._faces_chosen = {}
         self._world_notes = {}
+        self._world_renders = {}  # EEVEE captures: a world World Only cannot read, by Cycles
         self._details = {}
         self._detail_cache = {}
         plan = []
@@ -229,7 +230,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
         hidden = [obj] if settings.hide_self else []
         return CubeCapture(context.scene, obj.glossy.probe_centre, self._faces_chosen[name][0],
                            settings.capture_engine, settings.capture_samples,
-                           settings.clip_start, settings.clip_end, hidden)
+                           settings.clip_start, settings.clip_end, hidden,
+                           world_cache=self._world_renders)
 
     # --- synchronous (scripts, background) --------------------------------------
     def execute(self, context):

@@ -134,7 +134,15 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
     would move the cube's texels out of that cone), whose energy is the image's
     within 1.3% / 0.3% (bake.envmap.convert's area sums; 3% bounds both); and the
     cube stays in front of the world: the texels within 4 degrees of its direction
-    read its radiance, 7, within 1%."""
+    read its radiance, 7, within 1%.
+
+    Then a Gamma of 1 between the image and the Background, a world World Only
+    cannot read: Cycles renders the world alone (every object hidden, the capture's
+    sample floor) and EEVEE's scene is composited over it. At 16 px the energy
+    outside the cube's cone is the World Only cube's within 15% (measured -6.4%;
+    the bound and the sampling are test_a_sun_far_smaller_than_a_texel's), the
+    constant sky's texels within 1% (Cycles is exact on a constant), the cube
+    still 7."""
     from bake.envmap import get_layout
 
     result = run_script("capture_small_sun.py", ROOT, tmp_path, 0, "BLENDER_EEVEE",
@@ -155,3 +163,17 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
         assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01), face
         energy = float((world * cube.solid_angles(world.shape)).sum())
         assert energy == pytest.approx(result["image_energy"], rel=0.03), face
+        if face == 16:
+            cone = angle, outside, world
+    assert result["status_unreadable"] == ["FINISHED"]
+    assert result["meta_world_unreadable"].startswith(
+        "the world rendered alone by Cycles, composited behind the scene (the world's "
+        "Background colour comes from 'Gamma'")
+    angle, outside, world = cone
+    probe = np.array(result["probe_unreadable"])
+    solid = cube.solid_angles(probe.shape)
+    assert float((probe * solid)[outside].sum()) == pytest.approx(
+        float((world * solid)[outside].sum()), rel=0.15)
+    sky = outside & (world < 0.1)
+    assert probe[sky] == pytest.approx(world[sky], rel=0.01)
+    assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)

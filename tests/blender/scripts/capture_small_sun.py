@@ -14,7 +14,8 @@ ENGINE BLENDER_EEVEE captures with EEVEE at 2 samples (software GL is slow) and
 adds an emitting cube of radiance 7 (edge 1) at (4, 1.2, 0.8), so the probe must
 keep the scene in front of the world it composites: the script also records the
 World Only cube of the same world (glossy_addon.world.world_cube) and the probe's
-texels (red channel).
+texels (red channel), then captures once more at 16 px with a Gamma of 1 between
+the image and the Background, a world World Only cannot read.
 """
 
 import json
@@ -95,6 +96,20 @@ for face in (16, 32):
         world = world_cube(scene.world, face)
         report[f"probe_{face}"] = probe[..., 0].tolist()
         report[f"world_{face}"] = world[..., 0].tolist()
+if engine != "CYCLES":
+    # A world World Only cannot read (a Gamma of 1 between the image and the
+    # Background): Cycles renders it alone behind EEVEE's scene.
+    tree = scene.world.node_tree
+    background = next(n for n in tree.nodes if n.type == "BACKGROUND")
+    gamma = tree.nodes.new("ShaderNodeGamma")
+    gamma.inputs["Gamma"].default_value = 1.0
+    tree.links.new(node.outputs["Color"], gamma.inputs["Color"])
+    tree.links.new(gamma.outputs["Color"], background.inputs["Color"])
+    ball.glossy.probe_resolution = 16
+    report["status_unreadable"] = sorted(bpy.ops.glossy.capture_probes())
+    probe, meta = exr.read(ball.glossy.probe_path)
+    report["meta_world_unreadable"] = meta.get("world")
+    report["probe_unreadable"] = probe[..., 0].tolist()
 report["filter_after"] = [scene.cycles.pixel_filter_type, scene.cycles.filter_width,
                           scene.cycles.samples]
 with open(result_path, "w") as handle:
