@@ -128,7 +128,8 @@ class CubeCapture:
     composited the same way (``world_cache``: a dict the caller keeps across
     the captures of one run, so that one probe's world is rendered once however
     many CubeCaptures render its faces). A world hidden from glossy rays is
-    drawn by EEVEE as before. ``world_note`` says which.
+    left out (black behind the scene), as a Cycles capture, whose camera rays
+    get the glossy visibility, leaves it out. ``world_note`` says which.
     """
 
     def __init__(self, scene, centre, size, engine="CYCLES", samples=16, clip_start=0.01,
@@ -209,8 +210,9 @@ class CubeCapture:
         world = scene.world
         if world is None:
             return None, "no world"
-        if not world.cycles_visibility.glossy:
-            return None, "the world is hidden from glossy rays: rendered by EEVEE"
+        if not world.cycles_visibility.glossy:  # as a Cycles capture shows it: nothing
+            return np.zeros((self.size, 6 * self.size, 3), np.float32), \
+                "the world is hidden from glossy rays: none behind the scene"
         try:
             return world_cube(world, self.size), "the world's image composited behind the scene"
         except (WorldNotReadable, ValueError) as error:

@@ -142,6 +142,8 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
     outside the cube's cone is the World Only cube's within 15% (measured -6.4%;
     the bound and the sampling are test_a_sun_far_smaller_than_a_texel's), the
     constant sky's texels within 1% (Cycles is exact on a constant), the cube
+    still 7. Last, that world hidden from glossy rays: the probe is black outside the
+    cube's cone (a Cycles capture leaves such a world out; EEVEE drew it), the cube
     still 7."""
     from bake.envmap import get_layout
 
@@ -176,4 +178,11 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
         float((world * solid)[outside].sum()), rel=0.15)
     sky = outside & (world < 0.1)
     assert probe[sky] == pytest.approx(world[sky], rel=0.01)
+    assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)
+    # Hidden from glossy rays, the world is left out of the probe, as Cycles leaves it.
+    assert result["status_hidden"] == ["FINISHED"]
+    assert result["meta_world_hidden"] == \
+        "the world is hidden from glossy rays: none behind the scene"
+    probe = np.array(result["probe_hidden"])
+    assert np.all(probe[outside] == 0.0)
     assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)

@@ -15,7 +15,8 @@ adds an emitting cube of radiance 7 (edge 1) at (4, 1.2, 0.8), so the probe must
 keep the scene in front of the world it composites: the script also records the
 World Only cube of the same world (glossy_addon.world.world_cube) and the probe's
 texels (red channel), then captures once more at 16 px with a Gamma of 1 between
-the image and the Background, a world World Only cannot read.
+the image and the Background, a world World Only cannot read, and once more with
+that world hidden from glossy rays.
 """
 
 import json
@@ -110,6 +111,12 @@ if engine != "CYCLES":
     probe, meta = exr.read(ball.glossy.probe_path)
     report["meta_world_unreadable"] = meta.get("world")
     report["probe_unreadable"] = probe[..., 0].tolist()
+    # A world hidden from glossy rays: not in the probe (as Cycles leaves it out).
+    scene.world.cycles_visibility.glossy = False
+    report["status_hidden"] = sorted(bpy.ops.glossy.capture_probes())
+    probe, meta = exr.read(ball.glossy.probe_path)
+    report["meta_world_hidden"] = meta.get("world")
+    report["probe_hidden"] = probe[..., 0].tolist()
 report["filter_after"] = [scene.cycles.pixel_filter_type, scene.cycles.filter_width,
                           scene.cycles.samples]
 with open(result_path, "w") as handle:
