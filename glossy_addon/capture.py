@@ -217,14 +217,11 @@ class CubeCapture:
             return world_cube(world, self.size), "the world's image composited behind the scene"
         except (WorldNotReadable, ValueError) as error:
             reason = str(error)
-        key = (tuple(round(c, 9) for c in self.centre), self.size, self.samples, self.clip)
-        if key not in self.world_cache:
-            alone = [obj for obj in scene.objects if not obj.hide_render]
-            with CubeCapture(scene, self.centre, self.size, "CYCLES", self.samples,
-                             *self.clip, hidden=alone) as capture:
-                self.world_cache[key] = np.concatenate(
-                    [capture.render_face(face) for face in range(6)], axis=1)
-        return self.world_cache[key], \
+        for _ in world_render_steps(scene, self.centre, self.size, self.samples, self.clip,
+                                    self.world_cache):
+            pass
+        return self.world_cache[world_render_key(self.centre, self.size, self.samples,
+                                                 self.clip)], \
             f"the world rendered alone by Cycles, composited behind the scene ({reason})"
 
     def _as_glossy_rays(self, scene):
@@ -307,3 +304,31 @@ class CubeCapture:
         bpy.data.cameras.remove(data)
         self._folder.cleanup()
         return False
+
+
+def world_render_key(centre, size, samples, clip):
+    """What identifies a world rendered alone (:func:`world_render_steps`) in a cache."""
+    return (tuple(round(float(c), 9) for c in centre), int(size), int(samples),
+            tuple(float(c) for c in clip))
+
+
+def world_render_steps(scene, centre, size, samples, clip, cache):
+    """Generator: the world rendered alone by Cycles from ``centre`` (every object
+    hidden, :func:`cycles_face_settings`), the cube (size, 6 size, 3) put in
+    ``cache`` under :func:`world_render_key` once all six faces are done (nothing
+    when it is there already). One face per part, each in a CubeCapture of its own,
+    so that nothing of the capture's set-up outlives a part (the UI runs one part
+    per timer tick, and Esc between parts leaves the scene as it was); yields
+    (fraction, message) between faces and returns a message."""
+    key = world_render_key(centre, size, samples, clip)
+    if key in cache:
+        return "the world was rendered already"
+    faces = []
+    for face in range(6):
+        alone = [obj for obj in scene.objects if not obj.hide_render]
+        with CubeCapture(scene, centre, size, "CYCLES", samples, *clip, hidden=alone) as capture:
+            faces.append(capture.render_face(face))
+        if face < 5:
+            yield (face + 1) / 6, f"the world alone by Cycles: face {face + 1}/6"
+    cache[key] = np.concatenate(faces, axis=1)
+    return "the world rendered alone by Cycles"

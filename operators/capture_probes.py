@@ -10,7 +10,7 @@ from ..bake import exr, lobes, probe_detail, resolution, sampling_runtime
 from ..bake.errors import BakeError
 from ..bake.progress import background_steps
 from ..glossy_addon import ownership
-from ..glossy_addon.capture import CubeCapture
+from ..glossy_addon.capture import CubeCapture, world_render_steps
 from ..glossy_addon.centres import probe_centre
 from ..glossy_addon.modal import TimerSteps
 from ..glossy_addon.paths import output_folder
@@ -119,6 +119,21 @@ def _world_detail_steps(context, face, reason, detail, cache):
     return chosen, (f"{chosen} px faces: the most the world image's detail or Max Probe "
                     f"Resolution allows (the probe adds {error:.1%} there, {first:.1%} at the "
                     f"lobe's {face} px)")
+
+
+def _world_rendered_alone(context, obj):
+    """Whether an EEVEE capture of ``obj`` renders the world alone by Cycles first
+    (glossy_addon.capture.CubeCapture: a world World Only cannot read, seen by
+    glossy rays)."""
+    world = context.scene.world
+    if obj.glossy.capture_engine == "CYCLES" or world is None or \
+            not world.cycles_visibility.glossy:
+        return False
+    try:
+        world_environment(world)
+    except WorldNotReadable:
+        return True
+    return False
 
 
 class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
@@ -277,6 +292,8 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             world = bpy.data.objects[name].glossy.probe_source == "WORLD"
             if name in self._details:
                 steps.append((index, "detail"))
+            if not world and _world_rendered_alone(context, bpy.data.objects[name]):
+                steps.append((index, "world"))
             steps += [(index, None)] if world else [(index, face) for face in range(6)]
         return steps
 
@@ -287,6 +304,12 @@ class GLOSSY_OT_capture_probes(TimerSteps, bpy.types.Operator):
             return self._measure_detail(context, name)
         obj = bpy.data.objects[name]
         obj.glossy.probe_centre = tuple(float(c) for c in centre)
+        if face == "world":  # one Cycles face per timer tick, before EEVEE's six
+            settings = obj.glossy
+            return world_render_steps(context.scene, tuple(settings.probe_centre),
+                                      self._faces_chosen[name][0], settings.capture_samples,
+                                      (settings.clip_start, settings.clip_end),
+                                      self._world_renders)
         if face is None:
             result = self._world_cube(context, self._faces_chosen[name][0])
         else:

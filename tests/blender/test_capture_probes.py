@@ -179,6 +179,12 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
     sky = outside & (world < 0.1)
     assert probe[sky] == pytest.approx(world[sky], rel=0.01)
     assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)
+    # The UI's parts of that render: Esc after two leaves the scene as it was and
+    # caches nothing; all six give the same world as the capture's (same seed).
+    assert result["closed_parts"] == {"unchanged": True, "cached": 0}
+    assert len(result["parts"]) == 5
+    parts_world = np.array(result["parts_world"])
+    assert parts_world[outside] == pytest.approx(probe[outside], rel=1e-6)
     # Hidden from glossy rays, the world is left out of the probe, as Cycles leaves it.
     assert result["status_hidden"] == ["FINISHED"]
     assert result["meta_world_hidden"] == \

@@ -16,7 +16,8 @@ keep the scene in front of the world it composites: the script also records the
 World Only cube of the same world (glossy_addon.world.world_cube) and the probe's
 texels (red channel), then captures once more at 16 px with a Gamma of 1 between
 the image and the Background, a world World Only cannot read, and once more with
-that world hidden from glossy rays.
+that world hidden from glossy rays; between the two, it drives the UI's parts of
+the world's Cycles render (glossy_addon.capture.world_render_steps) by hand.
 """
 
 import json
@@ -111,6 +112,24 @@ if engine != "CYCLES":
     probe, meta = exr.read(ball.glossy.probe_path)
     report["meta_world_unreadable"] = meta.get("world")
     report["probe_unreadable"] = probe[..., 0].tolist()
+    # The UI's parts of that world render (one Cycles face per timer tick): closed
+    # after two parts (Esc) it leaves the scene as it was and caches nothing.
+    from glossy.glossy_addon.capture import world_render_steps
+
+    before = (scene.camera, scene.render.engine, scene.render.resolution_x,
+              [o.hide_render for o in scene.objects])
+    cache = {}
+    centre, clip = tuple(ball.glossy.probe_centre), (ball.glossy.clip_start,
+                                                      ball.glossy.clip_end)
+    parts = world_render_steps(scene, centre, 16, ball.glossy.capture_samples, clip, cache)
+    next(parts), next(parts)
+    parts.close()
+    after = (scene.camera, scene.render.engine, scene.render.resolution_x,
+             [o.hide_render for o in scene.objects])
+    report["closed_parts"] = {"unchanged": before == after, "cached": len(cache)}
+    parts = world_render_steps(scene, centre, 16, ball.glossy.capture_samples, clip, cache)
+    report["parts"] = [message for _, message in parts]
+    report["parts_world"] = next(iter(cache.values()))[..., 0].tolist()
     # A world hidden from glossy rays: not in the probe (as Cycles leaves it out).
     scene.world.cycles_visibility.glossy = False
     report["status_hidden"] = sorted(bpy.ops.glossy.capture_probes())
