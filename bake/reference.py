@@ -546,20 +546,28 @@ def _core_quadrature(model, layout, core, frames, wo_local, mirror, radius):
     world = np.concatenate([lobe, cap], axis=1)
     world /= np.maximum(np.linalg.norm(world, axis=-1, keepdims=True), 1e-300)
     local = np.einsum("pij,psj->psi", frames, world)
-    wo = np.broadcast_to(wo_local[:, None, :], local.shape)
-    with np.errstate(all="ignore"):
-        pdf_lobe = np.nan_to_num(np.asarray(model.pdf(local, wo), dtype=np.float64))
     cosine = np.einsum("psj,pj->ps", world, mirror)
-    pdf_cap = np.where(cosine >= np.cos(cap_angle)[:, None] - 1e-12,
-                       1.0 / (2.0 * np.pi * (1.0 - np.cos(cap_angle)))[:, None], 0.0)
-    density = lobe_count * pdf_lobe + cap_count * pdf_cap
+    inside_cap = cosine >= np.cos(cap_angle)[:, None] - 1e-12
     row, col = layout.direction_to_texel(world, core.grid_shape)
     share = _core_share(layout.directions(col + 0.5, row + 0.5, core.grid_shape), mirror, radius)
-    keep = (share > 0.0) & (density > 0.0) & (local[..., 2] > 0.0)
-    weight = share * local[..., 2] / np.where(keep, density, 1.0)
-    value = model.f(local, wo_local[:, None, :]) * weight[..., None]  # view terms once
+    # Only samples in the core and above the surface add anything: the BRDF, its
+    # density and the probe are evaluated at those alone (a mixture's wide part
+    # sends most of its samples outside a narrow part's core).
+    pixel, sample = np.nonzero((share > 0.0) & (local[..., 2] > 0.0))
+    local, world = local[pixel, sample], world[pixel, sample]
+    wo = wo_local[pixel]
+    with np.errstate(all="ignore"):
+        pdf_lobe = np.nan_to_num(np.asarray(model.pdf(local, wo), dtype=np.float64))
+    pdf_cap = np.where(inside_cap[pixel, sample],
+                       1.0 / (2.0 * np.pi * (1.0 - np.cos(cap_angle)))[pixel], 0.0)
+    density = lobe_count * pdf_lobe + cap_count * pdf_cap
+    keep = density > 0.0
+    weight = share[pixel, sample] * local[:, 2] / np.where(keep, density, 1.0)
+    value = model.f(local, wo) * weight[:, None]
     value *= np.asarray(core.sampler(world), dtype=np.float64)
-    return np.where(keep[..., None], value, 0.0).sum(axis=1)
+    value = np.where(keep[:, None], value, 0.0)
+    return np.stack([np.bincount(pixel, weights=value[:, c], minlength=len(frames))
+                     for c in range(3)], axis=1)
 
 
 def _render_chunk(model, layout, image_shape, levels, frames, wo_local, tolerance,

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .vectors import normalize
+from .vectors import dot, normalize
 
 __all__ = ["ggx_d", "beckmann_d", "ggx_lambda", "beckmann_lambda_cycles", "slope_s",
            "sample_ggx_vndf", "sample_beckmann_h", "reflect_about"]
@@ -48,7 +48,7 @@ def beckmann_lambda_cycles(w, ax, ay):
 
 def reflect_about(wo, m):
     """Reflect wo about unit microfacet normals m: 2 (wo.m) m - wo."""
-    return 2.0 * np.sum(wo * m, axis=-1, keepdims=True) * m - wo
+    return 2.0 * dot(wo, m)[..., None] * m - wo
 
 
 def sample_ggx_vndf(wo, u, ax, ay):

@@ -324,7 +324,7 @@ class Principled(BRDF):
             energy, _ = self._energy(mu, self._coat, fss, always=True, looked=coat)
             total = total + self.coat * (lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
                 ..., None] * energy
-        lw, lo = rotate_z(wi, -self.angle), rotate_z(wo, -self.angle)
+        lw, lo = self._unrotated(wi, -self.angle), self._unrotated(wo, -self.angle)
         lobe, cos_hv = self._ggx(lw, lo, self.ax, self.ay)
         c = np.clip(cos_hv, 0.0, 1.0)[..., None]
         if self.metallic > 0.0:
@@ -347,6 +347,10 @@ class Principled(BRDF):
         total = sum(weights)
         return [w / total for w in weights]
 
+    def _unrotated(self, v, angle):
+        """rotate_z(v, angle), or v itself where the lobe is not rotated."""
+        return rotate_z(v, angle) if self.angle else v
+
     def sample(self, wo, u):
         wo, u = broadcast_wo_u(wo, u)
         w_main, w_coat, _ = self._mixture()
@@ -356,14 +360,28 @@ class Principled(BRDF):
                           max(1.0 - w_main - w_coat, 1e-12))
         uu = np.stack([np.clip((u[..., 0] - low) / np.maximum(width, 1e-12), 0.0, 1.0 - 1e-12),
                        u[..., 1]], -1)
+
+        def main(wo, uu):
+            local = self._unrotated(wo, -self.angle)
+            return self._unrotated(
+                reflect_about(local, sample_ggx_vndf(local, uu, self.ax, self.ay)), self.angle)
+
+        def coat(wo, uu):
+            return reflect_about(wo, sample_ggx_vndf(wo, uu, self.coat_alpha, self.coat_alpha))
+
+        def diffuse(wo, uu):
+            return cosine_hemisphere(uu)[0]
+
+        # Each branch only where it was chosen (the same values as computing all
+        # three everywhere and selecting).
+        wi = np.zeros(wo.shape)
         with np.errstate(all="ignore"):
-            local = rotate_z(wo, -self.angle)
-            main = rotate_z(reflect_about(local, sample_ggx_vndf(local, uu, self.ax, self.ay)),
-                            self.angle)
-            coat = reflect_about(wo, sample_ggx_vndf(wo, uu, self.coat_alpha, self.coat_alpha))
-            diffuse, _ = cosine_hemisphere(uu)
-        wi = np.where((choice == 0)[..., None], main, np.where((choice == 1)[..., None], coat,
-                                                                diffuse))
+            for index, branch in enumerate((main, coat, diffuse)):
+                chosen = choice == index
+                if chosen.all():
+                    wi = np.array(branch(wo, uu), dtype=np.float64)
+                elif chosen.any():
+                    wi[chosen] = branch(wo[chosen], uu[chosen])
         return wi, self.pdf(wi, wo)
 
     def pdf(self, wi, wo):
@@ -378,7 +396,8 @@ class Principled(BRDF):
             return np.where((dot(wo, h) > 0) & (wo[..., 2] > 0), value, 0.0)
 
         with np.errstate(all="ignore"):
-            total = w_main * vndf(rotate_z(wi, -self.angle), rotate_z(wo, -self.angle),
+            total = w_main * vndf(self._unrotated(wi, -self.angle),
+                                  self._unrotated(wo, -self.angle),
                                   self.ax, self.ay)
             if w_coat:
                 total = total + w_coat * vndf(wi, wo, self.coat_alpha, self.coat_alpha)
