@@ -142,7 +142,10 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
     outside the cube's cone is the World Only cube's within 15% (measured -6.4%;
     the bound and the sampling are test_a_sun_far_smaller_than_a_texel's), the
     constant sky's texels within 1% (Cycles is exact on a constant), the cube
-    still 7. Last, that world hidden from glossy rays: the probe is black outside the
+    still 7. The operator's modal loop (the UI's) renders that world one Cycles face
+    per timer tick before the six faces: Esc in the middle leaves the scene, the
+    probe and the cache as they were; run to the end it writes the same probe.
+    Last, that world hidden from glossy rays: the probe is black outside the
     cube's cone (a Cycles capture leaves such a world out; EEVEE drew it), the cube
     still 7."""
     from bake.envmap import get_layout
@@ -179,12 +182,29 @@ def test_an_eevee_capture_composites_the_world_behind_the_scene(tmp_path):
     sky = outside & (world < 0.1)
     assert probe[sky] == pytest.approx(world[sky], rel=0.01)
     assert probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)
-    # The UI's parts of that render: Esc after two leaves the scene as it was and
-    # caches nothing; all six give the same world as the capture's (same seed).
-    assert result["closed_parts"] == {"unchanged": True, "cached": 0}
-    assert len(result["parts"]) == 5
-    parts_world = np.array(result["parts_world"])
-    assert parts_world[outside] == pytest.approx(probe[outside], rel=1e-6)
+    # The operator's modal loop (the UI's): a world step before the six faces, one
+    # Cycles face of the world per timer tick. Esc after the first leaves the
+    # scene, the probe file and the cache as they were; run to the end, 6 ticks
+    # for the world (a face each, the sixth finishing the step) and one per EEVEE
+    # face, it writes the capture's probe (the same seed: the same world to rounding).
+    steps = [["0", "world"]] + [["0", str(face)] for face in range(6)]
+    escape = result["modal_escape"]
+    assert escape["steps"] == steps
+    assert escape["results"] == [["RUNNING_MODAL"]] * 2 + [["CANCELLED"]]
+    assert escape["reports"] == [["WARNING", "Probe capture cancelled; no unfinished "
+                                             "probe was written"]]
+    assert escape["scene_unchanged"] and escape["probe_unchanged"]
+    assert escape["cached"] == 0
+    modal = result["modal"]
+    assert modal["steps"] == steps
+    assert modal["results"] == [["RUNNING_MODAL"]] * 12 + [["FINISHED"]]
+    assert modal["reports"] == [["INFO", "Glossy captured 1 probe(s)"]]
+    assert modal["scene_unchanged"] and not modal["probe_unchanged"]
+    assert modal["cached"] == 1
+    assert modal["meta_world"] == result["meta_world_unreadable"]
+    modal_probe = np.array(modal["probe"])
+    assert modal_probe[outside] == pytest.approx(probe[outside], rel=1e-6)
+    assert modal_probe[angle < 4.0] == pytest.approx(7.0, rel=0.01)
     # Hidden from glossy rays, the world is left out of the probe, as Cycles leaves it.
     assert result["status_hidden"] == ["FINISHED"]
     assert result["meta_world_hidden"] == \

@@ -16,8 +16,9 @@ keep the scene in front of the world it composites: the script also records the
 World Only cube of the same world (glossy_addon.world.world_cube) and the probe's
 texels (red channel), then captures once more at 16 px with a Gamma of 1 between
 the image and the Background, a world World Only cannot read, and once more with
-that world hidden from glossy rays; between the two, it drives the UI's parts of
-the world's Cycles render (glossy_addon.capture.world_render_steps) by hand.
+that world hidden from glossy rays; between the two, it drives the operator's
+modal loop (its world step one Cycles face per timer tick, then the six faces)
+with a stand-in window manager, once cut by Esc and once to the end.
 """
 
 import json
@@ -81,6 +82,75 @@ bpy.ops.object.select_all(action="DESELECT")
 ball.select_set(True)
 bpy.context.view_layer.objects.active = ball
 bpy.ops.wm.save_as_mainfile(filepath=str(workdir / "scene.blend"))
+
+
+def modal_capture(events):
+    """Drive glossy.capture_probes' modal loop (TimerSteps.invoke / modal and the
+    operator's own _begin and _run_step) with TIMER / ESC events: its steps,
+    results, reports, whether the scene and the probe file were left as found,
+    and what its world cache holds."""
+    from types import SimpleNamespace
+
+    from glossy.glossy_addon.modal import TimerSteps
+    from glossy.operators.capture_probes import GLOSSY_OT_capture_probes
+
+    class WindowManager:
+        def event_timer_add(self, interval, window=None):
+            return "timer"
+
+        def event_timer_remove(self, timer):
+            pass
+
+        def modal_handler_add(self, operator):
+            pass
+
+        def progress_begin(self, *args):
+            pass
+
+        progress_update = progress_end = progress_begin
+
+    class Context:
+        window, window_manager = None, WindowManager()
+        workspace = SimpleNamespace(status_text_set=lambda text: None)
+
+        def __getattr__(self, name):
+            return getattr(bpy.context, name)
+
+    class Driver(TimerSteps):
+        progress_title = GLOSSY_OT_capture_probes.progress_title
+
+        def __init__(self):
+            self.reports = []
+
+        def _interactive(self):
+            return True
+
+        def report(self, kind, message):
+            self.reports.append([sorted(kind)[0], message])
+
+    for name in ("_plan", "_measure_detail", "_claim_paths", "_finish", "_world_cube",
+                 "_capture", "_begin", "_run_step", "_done_message", "_cancel_message"):
+        setattr(Driver, name, GLOSSY_OT_capture_probes.__dict__[name])
+
+    def scene_state():
+        return (str(scene.camera), scene.render.engine, scene.render.resolution_x,
+                scene.render.film_transparent, [o.hide_render for o in scene.objects],
+                scene.cycles.samples)
+
+    path = Path(bpy.path.abspath(ball.glossy.probe_path))
+    stamp, before = path.stat().st_mtime_ns, scene_state()
+    driver, context = Driver(), Context()
+    results = [sorted(driver.invoke(context, None))]
+    for kind in events:
+        if results[-1] != ["RUNNING_MODAL"]:
+            break
+        results.append(sorted(driver.modal(context, SimpleNamespace(type=kind))))
+    return {"steps": [list(map(str, step)) for step in driver._steps],
+            "results": results, "reports": driver.reports,
+            "scene_unchanged": scene_state() == before,
+            "probe_unchanged": path.stat().st_mtime_ns == stamp,
+            "cached": len(driver._world_renders)}
+
 cube = envmap.get_layout("cube")
 report = {"sun_texels": int(inside.sum()), "image_energy": energy,
           "sun_share": 1.0 - sky_energy / energy, "samples": ball.glossy.capture_samples,
@@ -112,24 +182,16 @@ if engine != "CYCLES":
     probe, meta = exr.read(ball.glossy.probe_path)
     report["meta_world_unreadable"] = meta.get("world")
     report["probe_unreadable"] = probe[..., 0].tolist()
-    # The UI's parts of that world render (one Cycles face per timer tick): closed
-    # after two parts (Esc) it leaves the scene as it was and caches nothing.
-    from glossy.glossy_addon.capture import world_render_steps
-
-    before = (scene.camera, scene.render.engine, scene.render.resolution_x,
-              [o.hide_render for o in scene.objects])
-    cache = {}
-    centre, clip = tuple(ball.glossy.probe_centre), (ball.glossy.clip_start,
-                                                      ball.glossy.clip_end)
-    parts = world_render_steps(scene, centre, 16, ball.glossy.capture_samples, clip, cache)
-    next(parts), next(parts)
-    parts.close()
-    after = (scene.camera, scene.render.engine, scene.render.resolution_x,
-             [o.hide_render for o in scene.objects])
-    report["closed_parts"] = {"unchanged": before == after, "cached": len(cache)}
-    parts = world_render_steps(scene, centre, 16, ball.glossy.capture_samples, clip, cache)
-    report["parts"] = [message for _, message in parts]
-    report["parts_world"] = next(iter(cache.values()))[..., 0].tolist()
+    # The UI's modal loop of the operator itself (a stand-in window manager, as
+    # modal_steps.py; Blender runs modal operators only with an event loop): an
+    # (object, "world") step renders that world one Cycles face per timer tick
+    # before EEVEE's six faces. Esc during it leaves the scene, the probe and the
+    # cache as they were; run to the end it writes the probe the capture wrote.
+    report["modal_escape"] = modal_capture(["TIMER", "ESC"])
+    report["modal"] = modal_capture(["TIMER"] * 20)
+    probe, meta = exr.read(ball.glossy.probe_path)
+    report["modal"]["meta_world"] = meta.get("world")
+    report["modal"]["probe"] = probe[..., 0].tolist()
     # A world hidden from glossy rays: not in the probe (as Cycles leaves it out).
     scene.world.cycles_visibility.glossy = False
     report["status_hidden"] = sorted(bpy.ops.glossy.capture_probes())
