@@ -15,7 +15,7 @@ from mathutils import Matrix, Vector
 
 from ..bake import exr
 from ..bake.envmap.cube import _FACE_TABLE
-from .scenes import render_engine
+from .scenes import casts_shadows, render_engine
 from .world import CameraRayMixesOpen
 
 #: GL frame -> Blender: (x, y, z) = (g0, -g2, g1).
@@ -164,6 +164,7 @@ class CubeCapture:
                                      cycles_face_settings(self.samples, self.size)}
         else:
             self._saved["samples"] = scene.eevee.taa_render_samples
+            self._saved["shadows"] = scene.eevee.use_shadows
         # Before CameraRayMixesOpen cuts the world's Is Camera Ray links, which
         # world_environment follows to the shader reflections see.
         self.world_faces, self.world_note = (None, "rendered by Cycles") \
@@ -194,6 +195,8 @@ class CubeCapture:
             scene.eevee.taa_render_samples = self.samples
         for obj in self.hidden:
             obj.hide_render = True
+        if self.engine != "CYCLES":  # exact: no light casts one (scenes.casts_shadows)
+            scene.eevee.use_shadows = scene.eevee.use_shadows and casts_shadows(scene)
         self._swapped = lookup_truths(scene, self.hidden) if self.engine == "CYCLES" else []
         for slot, _, truth in self._swapped:
             slot.material = truth
@@ -284,6 +287,7 @@ class CubeCapture:
             scene.cycles.samples = saved["samples"]
         else:
             scene.eevee.taa_render_samples = saved["samples"]
+            scene.eevee.use_shadows = saved["shadows"]
         for name, hidden in saved["hidden"]:
             if name in bpy.data.objects:
                 bpy.data.objects[name].hide_render = hidden

@@ -316,7 +316,7 @@ class GLOSSY_PT_validate(_Sidebar, bpy.types.Panel):
         settings = context.scene.glossy
         layout = self.layout
         _props(layout, settings, ("validate_resolution", "validate_samples",
-                                  "validate_eevee_samples"))
+                                  "validate_eevee_samples", "validate_reference"))
         layout.operator("glossy.validate", icon="CHECKMARK")
         if settings.last_report:
             layout.label(text=settings.last_report, icon="FILE_TEXT")

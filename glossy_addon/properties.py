@@ -47,6 +47,12 @@ class GlossySceneSettings(bpy.types.PropertyGroup):
     validate_eevee_samples: bpy.props.IntProperty(
         name="EEVEE Samples", description="EEVEE render samples (native and Glossy)",
         default=16, min=1, max=4096)
+    validate_reference: bpy.props.BoolProperty(
+        name="NumPy Reference", description="Also shade the objects' pixels with the NumPy "
+        "reference over the same probe (what the probe allows: the report's 'Glossy vs "
+        "reference' and its diagnosis). Off skips it, most of a narrow lobe's validation "
+        "time; objects without a Cycles truth are still measured against it",
+        default=True)
     last_report: bpy.props.StringProperty(
         name="Last Report", description="report.md of the last validation", subtype="FILE_PATH")
 

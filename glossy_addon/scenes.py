@@ -31,6 +31,20 @@ def render_engine(name: str) -> str:
     return eevee_engine() if name.startswith("BLENDER_EEVEE") else name
 
 
+def casts_shadows(scene) -> bool:
+    """Whether a light of ``scene``'s EEVEE render may cast a shadow: a lamp that
+    renders with its shadow on, or the sun EEVEE extracts from the world (its
+    threshold above 0 and its shadow on). Conservative: a lamp hidden by its
+    collection still counts."""
+    world = scene.world
+    if world is not None and getattr(world, "sun_threshold", 0.0) > 0.0 \
+            and getattr(world, "use_sun_shadow", True):
+        return True
+    return any(obj.type == "LIGHT" and not obj.hide_render
+               and getattr(obj.data, "use_shadow", True)
+               for obj in scene.objects)
+
+
 def float_exr_output(scene, width, height=None):
     """Render at width x height (100%) to 32-bit float EXR with the Standard view
     transform, so saved pixels are the scene-linear radiance."""

@@ -4,7 +4,8 @@ Renders the scene with the camera (or a temporary one framing the selection):
 Cycles with the true BSDFs (two seeds), EEVEE with EEVEE's own BSDFs (the
 scene's settings, and once more without sun extraction and indirect clamp
 when the scene has them), EEVEE with Glossy's lookups, and the NumPy
-reference at the same pixels; then writes per object a PNG sheet plus
+reference at the same pixels (unless the scene's NumPy Reference is off, where
+only objects without a Cycles truth get it); then writes per object a PNG sheet plus
 report.json / report.md / the renders into ``//glossy/validation/`` and
 stores the figures on each material. Everything it changes is put back
 however it ends; a cancelled or failed validation leaves no report.
@@ -146,7 +147,13 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             steps.insert(2, ("input_pass", kind))
         if self._careful:
             steps.append(("eevee_native_careful", 0))
-        steps += [("reference", index) for index in range(len(self._targets))]
+        # The reference of an object whose material has no Cycles truth is its truth.
+        steps += [("reference", index) for index, (_, materials) in enumerate(self._targets)
+                  if settings.validate_reference
+                  or any(self._truth.get(m.name) is None for m in materials)]
+        if not settings.validate_reference:
+            self._notes.append("the NumPy reference was off (Validate panel): no 'Glossy vs "
+                               "reference' figures and no diagnosis of where the error lies")
         steps.append(("report", 0))
         return steps
 
@@ -477,11 +484,12 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
         settings = scene.glossy
         staging = self._work / "report"
         staging.mkdir()
-        reference_image = np.zeros_like(self._images["cycles_seed1"])
-        for image in self._references.values():
-            reference_image += image
-        exr.write(staging / "reference.exr", reference_image.astype(np.float32),
-                  {"generator": "glossy-validate", "kind": "reference"})
+        if self._references:
+            reference_image = np.zeros_like(self._images["cycles_seed1"])
+            for image in self._references.values():
+                reference_image += image
+            exr.write(staging / "reference.exr", reference_image.astype(np.float32),
+                      {"generator": "glossy-validate", "kind": "reference"})
         masks = {}
         cos_view = self._cos_view()
         entries, sheets = [], {}
@@ -495,7 +503,7 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
             material = materials[0]
             has_truth = self._truth.get(material.name) is not None
             renders = {"eevee_glossy": self._images["eevee_glossy"],
-                       "reference": self._references[obj.name]}
+                       "reference": self._references.get(obj.name)}
             if has_truth:
                 renders["eevee_native"] = self._images["eevee_native"]
                 if "eevee_native_careful" in self._images:
@@ -524,13 +532,16 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                   "eevee_samples": settings.validate_eevee_samples,
                   "flip": metrics.flip_available(), "notes": self._notes,
                   "renders": {name: f"{name}.exr" for name in self._images},
-                  "reference": "reference.exr", "masks": "masks.exr",
+                  "reference": "reference.exr" if self._references else None,
+                  "masks": "masks.exr",
                   "timings_s": {k: round(v, 2) for k, v in self._timings.items()},
                   "objects": entries}
         validation.write_report(staging, report, sheets)
         self._folder.mkdir(parents=True, exist_ok=True)
         for path in sorted(staging.iterdir()):  # whole files, each replaced atomically
             os.replace(path, self._folder / path.name)
+        if not self._references:  # an earlier validation's, which this report does not name
+            (self._folder / "reference.exr").unlink(missing_ok=True)
         settings.last_report = str(self._folder / "report.md")
         return f"wrote {len(entries)} sheet(s) and the report to {self._folder}"
 

@@ -178,6 +178,17 @@ def test_an_input_through_a_node_chain_renders_as_the_value_typed_in(
     assert chain["glossy"] < chain["native"]
 
 
+def test_validation_without_the_numpy_reference_measures_against_cycles_alone(colour_split):
+    # colour_split validates with the panel's NumPy Reference off: no reference step,
+    # image or figure, the report says so, and every figure against Cycles is there.
+    report = colour_split["report"]
+    assert report["reference"] is None and "reference.exr" not in report["files"]
+    assert not [name for name in report["timings"] if name.startswith("reference")]
+    assert "reference" not in report["figures"] and "glossy_vs_reference" not in report["figures"]
+    assert {"eevee_glossy", "eevee_native", "cycles_noise"} <= set(report["figures"])
+    assert any("NumPy reference was off" in note for note in report["notes"])
+
+
 def test_a_coated_metal_s_colour_split_beats_its_one_map_bake(colour_split):
     # Under a coat (Coat Weight 1, coat roughness 0.03): maps of the metal alone at
     # colours 0 and 1 and of the coat alone, C + W(mu) (R_0 + c (R_1 - R_0)) m.

@@ -147,10 +147,11 @@ def errors(figures):
                 methods.get("eevee_native_careful", {}).get("relative_rms", 1.0)))
 
 
-def validation_scene(hdri, workdir, resolution):
+def validation_scene(hdri, workdir, resolution, reference=True):
     """A new empty scene lit by ``hdri``, saved as WORKDIR/scene.blend (validation
     writes beside it), with small validation settings: ``resolution`` px, Cycles
-    2 x 256 spp, EEVEE 4 samples."""
+    2 x 256 spp, EEVEE 4 samples, the NumPy reference on or off (``reference``:
+    off where a test asserts only the figures against Cycles)."""
     import glossy
     from glossy.glossy_addon.scenes import environment_world
 
@@ -163,4 +164,5 @@ def validation_scene(hdri, workdir, resolution):
     settings.validate_resolution = resolution
     settings.validate_samples = 256
     settings.validate_eevee_samples = 4
+    settings.validate_reference = reference
     return scene

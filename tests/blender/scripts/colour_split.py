@@ -53,7 +53,7 @@ GREY = (0.8, 0.8, 0.8)
 if RATIO:
     spatial._split_knots = lambda parts, colour=True: []  # no split: the c / mean factor
 
-validation_scene(hdri, workdir, 64)
+validation_scene(hdri, workdir, 64, reference=False)  # only the figures against Cycles
 result = {}
 
 spheres = {}
@@ -142,4 +142,11 @@ for name, (steps, figures) in validate_together(spheres, workdir, 4, 2.5).items(
         "maps": [Path(p).stem.rsplit("_", 1)[-1]
                  for _, p, _ in material.glossy.roughness_map_list()],
     }
+report = json.loads((workdir / "glossy" / "validation" / "report.json").read_text())
+result["report"] = {"reference": report["reference"], "notes": report["notes"],
+                    "timings": sorted(report["timings_s"]),
+                    "files": sorted(p.name for p in (workdir / "glossy" / "validation").iterdir()),
+                    "figures": sorted({key for entry in report["objects"]
+                                       for key in (*entry["figures"],
+                                                   *entry["figures"]["methods"])})}
 result_path.write_text(json.dumps(result, indent=1, default=str))

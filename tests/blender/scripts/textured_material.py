@@ -40,7 +40,7 @@ from glossy.glossy_addon.material_source import parts  # noqa: E402
 SIZE = 64
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
-validation_scene(hdri, workdir, 80)
+validation_scene(hdri, workdir, 80, reference=False)  # only the figures against Cycles
 result = {}
 
 # --- the user's textures (64 x 64, tiled over Suzanne's UVs) -------------------------------
