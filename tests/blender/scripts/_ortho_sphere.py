@@ -69,6 +69,10 @@ def eevee_renders(scene, sphere, workdir, materials):
         sphere.data.materials.append(None)
     scene.render.engine = "BLENDER_EEVEE"
     scene.eevee.taa_render_samples = 1
+    # As validation and captures do: shadow maps only where a light casts a shadow
+    # (identical pixels otherwise: tests/blender/test_eevee_shadows.py).
+    from glossy.glossy_addon.scenes import casts_shadows
+    scene.eevee.use_shadows = scene.eevee.use_shadows and casts_shadows(scene)
     renders = {}
     for name, material in materials.items():
         sphere.data.materials[0] = material
