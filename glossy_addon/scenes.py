@@ -31,12 +31,26 @@ def render_engine(name: str) -> str:
     return eevee_engine() if name.startswith("BLENDER_EEVEE") else name
 
 
+#: Object types that never render as a surface (nothing to cast or catch a shadow).
+_NOT_SURFACES = {"LIGHT", "CAMERA", "SPEAKER", "LIGHT_PROBE", "ARMATURE", "LATTICE"}
+
+
 def casts_shadows(scene) -> bool:
     """Whether a light of ``scene``'s EEVEE render may cast a shadow: a lamp that
     renders with its shadow on, or the sun EEVEE extracts from the world (its
-    threshold above 0 and its shadow on). Conservative: a lamp hidden by its
-    collection still counts."""
+    threshold above 0 and its shadow on), and something that renders to cast
+    or catch one (an object other than a lamp, camera, empty without instances,
+    ...). Conservative: a lamp or object hidden by its collection still counts."""
+    surfaces = any(not obj.hide_render and obj.type not in _NOT_SURFACES
+                   and (obj.type != "EMPTY" or obj.instance_type != "NONE")
+                   for obj in scene.objects)
     world = scene.world
+    if world is not None and world.node_tree is not None and any(
+            node.type == "OUTPUT_WORLD" and node.inputs["Volume"].is_linked
+            for node in world.node_tree.nodes):
+        surfaces = True  # a world volume catches the sun's shadows too
+    if not surfaces:
+        return False
     if world is not None and getattr(world, "sun_threshold", 0.0) > 0.0 \
             and getattr(world, "use_sun_shadow", True):
         return True

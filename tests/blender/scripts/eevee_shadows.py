@@ -5,8 +5,9 @@
 A sphere over a plane (the sphere casts shadows) in HDRI, 24 px, 1 sample, as
 validation's careful native render has it (world sun extraction off): rendered
 with the scene's shadows on and off; then with a sun lamp added, on and off
-again (there they must differ, or the first comparison proves nothing). Also
-what ``scenes.casts_shadows`` answers for each set-up.
+again (there they must differ, or the first comparison proves nothing); then
+with the sphere and the plane hidden (only the world renders), on and off.
+Also what ``scenes.casts_shadows`` answers for each set-up.
 """
 
 import json
@@ -66,6 +67,17 @@ lamp.data.energy = 5.0
 scene.collection.objects.link(lamp)
 result["lamp"] = casts_shadows(scene)
 compare("lamp")
+# Nothing that renders but the world, under the lamp and the world's sun: no shadow
+# to cast or catch.
+scene.world.sun_threshold = 10.0
+for obj in scene.objects:
+    if obj.type == "MESH":
+        obj.hide_render = True
+result["nothing_to_shadow"] = casts_shadows(scene)
+compare("nothing_to_shadow")
 lamp.hide_render = True
+for obj in scene.objects:
+    obj.hide_render = obj.type != "MESH"
+scene.world.sun_threshold = 0.0
 result["lamp_hidden"] = casts_shadows(scene)
 result_path.write_text(json.dumps(result, indent=1))
