@@ -38,11 +38,13 @@ _NOT_SURFACES = {"LIGHT", "CAMERA", "SPEAKER", "LIGHT_PROBE", "ARMATURE", "LATTI
 def casts_shadows(scene) -> bool:
     """Whether a light of ``scene``'s EEVEE render may cast a shadow: a lamp that
     renders with its shadow on, or the sun EEVEE extracts from the world (its
-    threshold above 0 and its shadow on), and something that renders to cast
-    or catch one (an object other than a lamp, camera, empty without instances,
-    ...). Conservative: a lamp or object hidden by its collection still counts."""
+    threshold above 0 and its shadow on), and something that renders and casts
+    one (an object other than a lamp, camera, empty without instances, ...,
+    with its Shadow ray visibility on; a world volume counts). Conservative: a
+    lamp or object hidden by its collection still counts."""
     surfaces = any(not obj.hide_render and obj.type not in _NOT_SURFACES
                    and (obj.type != "EMPTY" or obj.instance_type != "NONE")
+                   and getattr(obj, "visible_shadow", True)
                    for obj in scene.objects)
     world = scene.world
     if world is not None and world.node_tree is not None and any(

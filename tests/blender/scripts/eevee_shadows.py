@@ -6,7 +6,8 @@ A sphere over a plane (the sphere casts shadows) in HDRI, 24 px, 1 sample, as
 validation's careful native render has it (world sun extraction off): rendered
 with the scene's shadows on and off; then with a sun lamp added, on and off
 again (there they must differ, or the first comparison proves nothing); then
-with the sphere and the plane hidden (only the world renders), on and off.
+with the sphere and the plane hidden from shadow rays, and hidden (only the
+world renders), on and off each.
 Also what ``scenes.casts_shadows`` answers for each set-up.
 """
 
@@ -67,9 +68,16 @@ lamp.data.energy = 5.0
 scene.collection.objects.link(lamp)
 result["lamp"] = casts_shadows(scene)
 compare("lamp")
-# Nothing that renders but the world, under the lamp and the world's sun: no shadow
-# to cast or catch.
+# The sphere and the plane hidden from shadow rays (as isolated objects are), under
+# the lamp and the world's sun: nothing casts a shadow.
 scene.world.sun_threshold = 10.0
+for obj in scene.objects:
+    obj.visible_shadow = False
+result["no_caster"] = casts_shadows(scene)
+compare("no_caster")
+for obj in scene.objects:
+    obj.visible_shadow = True
+# Nothing that renders but the world: no shadow to cast or catch.
 for obj in scene.objects:
     if obj.type == "MESH":
         obj.hide_render = True
