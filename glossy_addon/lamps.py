@@ -675,6 +675,7 @@ def lamp_terms(b, image, meta, lamps, diffuse_colour=None, tangent=("RADIAL", "Z
     for obj in lamps:
         cells = area_layout(obj) if obj.data.type == "AREA" else [(0.0, 0.0, 1.0)]
         for u, v, share in cells:
+            b.checkpoint()
             lamp = b._place(b.nodes.new("ShaderNodeGroup"))
             lamp.node_tree = lamp_group(obj.data.type)
             lamp.label = f"Glossy lamp {obj.name}" + (f" cell {u:+.2f} {v:+.2f}"

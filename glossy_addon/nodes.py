@@ -16,31 +16,159 @@ from .spatial import COAT, DIELECTRIC, GLOSSY, HIGH, LOW, METAL
 GROUP_VERSION = 1
 
 
-class _Builder:
-    """Small helpers that create and link nodes in one node tree."""
+#: Node types of a group interface socket, by the type of the socket it carries.
+_INTERFACE_TYPES = {"VALUE": "NodeSocketFloat", "VECTOR": "NodeSocketVector",
+                    "RGBA": "NodeSocketColor", "SHADER": "NodeSocketShader",
+                    "INT": "NodeSocketInt", "BOOLEAN": "NodeSocketBool"}
+#: Custom property on the private node groups a large lookup is split into.
+PART_TAG = "glossy_lookup_part"
+#: Most nodes a lookup puts in one node tree before it goes on in a new private group
+#: (each node edit in Blender 5.0 updates its whole tree, so a tree's build grows with
+#: the square of its size: 1000 Math nodes in one tree take 7 s, in ten trees 0.4 s).
+PART_NODES = 60
 
-    def __init__(self, tree, deferred=False):
+
+class _Part:
+    """One private node group of a split lookup: its tree, its group node in the
+    material's tree, its Group Input / Output nodes, the sockets it imports and
+    exports ({_Builder._key of the socket: interface socket name}) and its nodes'
+    x ({name: x})."""
+
+    def __init__(self, tree, node):
+        self.tree, self.node = tree, node
+        self.group_in = tree.nodes.new("NodeGroupInput")
+        self.group_out = tree.nodes.new("NodeGroupOutput")
+        self.imported, self.exported, self.placed = {}, {}, {}
+
+
+class _Builder:
+    """Small helpers that create and link nodes in one node tree.
+
+    With ``split`` (a material's tree, in build_lookup), :meth:`checkpoint` moves
+    the building on to a new private node group (:class:`_Part`, its group node in
+    the material's tree) once the current tree holds ``split`` nodes; :meth:`link`
+    carries a socket of another tree through the groups' interfaces, so the code
+    that builds a lookup links sockets as if it were all one tree."""
+
+    def __init__(self, tree, deferred=False, split=None, part_name="Glossy Lookup"):
         """deferred: keep the nodes' x in :attr:`placed` ({node name: x}) for
         :func:`_finish` to set in one call: each ``node.location`` set updates the
         whole tree, so placing the nodes one by one grows with the square of their
         number (a 987-node lookup: seconds)."""
+        self.root = tree
         self.tree = tree
-        self.nodes = tree.nodes
-        self.links = tree.links
         self.x = 0
         self.placed = {} if deferred else None
+        self.split = split
+        self.part_name = part_name
+        self.parts = []
+        self._count = 0
+        self._pending = False
+        self._at_root = False
+
+    @property
+    def nodes(self):
+        if self._pending and not self._at_root:
+            self._new_part()
+        return self.tree.nodes
+
+    @property
+    def links(self):
+        return self.tree.links
 
     def _place(self, node):
+        self._count += 1
         if self.placed is None:
             node.location = (self.x, 0)
-        else:
+        elif node.id_data == self.root:
             self.placed[node.name] = self.x
+        else:
+            self.parts[-1].placed[node.name] = self.x
         self.x += 30
         return node
+
+    def checkpoint(self):
+        """A point between parts of a lookup that only hand sockets forward: with
+        ``split``, the next node goes to a new private group once the current tree
+        has ``split`` nodes."""
+        if self.split is not None and self._count >= self.split and not self._at_root:
+            self._pending = True
+
+    def _new_part(self):
+        tree = bpy.data.node_groups.new(f".{self.part_name} {len(self.parts) + 1}",
+                                        "ShaderNodeTree")
+        tree[PART_TAG] = True
+        node = self.root.nodes.new("ShaderNodeGroup")
+        node.node_tree = tree
+        if self.placed is not None:
+            self.placed[node.name] = self.x
+        self.parts.append(_Part(tree, node))
+        self.tree = tree
+        self._count = 0
+        self._pending = False
+
+    def at_root(self):
+        """Context: build in the material's own tree (its output nodes) for a while."""
+        builder = self
+
+        class _AtRoot:
+            def __enter__(self):
+                self.saved = builder.tree, builder._at_root
+                builder.tree, builder._at_root = builder.root, True
+
+            def __exit__(self, *exc):
+                builder.tree, builder._at_root = self.saved
+
+        return _AtRoot()
+
+    def _part_of(self, tree):
+        return next(part for part in self.parts if part.tree == tree)
+
+    @staticmethod
+    def _key(socket):
+        """A socket by tree, node and identifier: adding a socket to a group's
+        interface rebuilds its group nodes' and Group Input's socket lists, so
+        neither socket objects nor their pointers may be kept across that."""
+        return socket.id_data.name, socket.node.name, socket.identifier
+
+    @staticmethod
+    def _interface(part, side, key, socket_type):
+        """(name, new): ``part``'s interface socket on ``side`` (``imported`` or
+        ``exported``) that carries the socket ``key``; new if it had none."""
+        table = getattr(part, side)
+        if key in table:
+            return table[key], False
+        table[key] = f"{side[0]}{len(table)}"
+        part.tree.interface.new_socket(table[key], socket_type=_INTERFACE_TYPES[socket_type],
+                                       in_out="INPUT" if side == "imported" else "OUTPUT")
+        return table[key], True
+
+    def reach(self, socket, tree):
+        """``socket`` (of any tree of this lookup, or the material's) as a socket of
+        ``tree``: through the group node's outputs and the Group Input's."""
+        if socket.id_data == tree:
+            return socket
+        outer = socket
+        if socket.id_data != self.root:  # out of its part, through the group node
+            part = self._part_of(socket.id_data)
+            name, new = self._interface(part, "exported", self._key(socket), socket.type)
+            if new:
+                part.tree.links.new(socket, part.group_out.inputs[name])
+            outer = part.node.outputs[name]
+        if tree == self.root:
+            return outer
+        part = self._part_of(tree)  # into ``tree``'s part, through its Group Input
+        name, new = self._interface(part, "imported", self._key(outer), outer.type)
+        if new:
+            self.root.links.new(outer, part.node.inputs[name])
+        return part.group_in.outputs[name]
 
     def link(self, socket, target):
         if isinstance(socket, (int, float, tuple)):
             target.default_value = socket
+        elif self.parts:
+            tree = target.id_data
+            tree.links.new(self.reach(socket, tree), target)
         else:
             self.links.new(socket, target)
 
@@ -276,14 +404,14 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     if user_output is not None:
         material[USER_OUTPUT] = user_output.name
     spatial = spatial or {}
-    b = _Builder(tree, deferred=True)
+    b = _Builder(tree, deferred=True, split=PART_NODES, part_name=f"Glossy Lookup {material.name}")
     mean_value = None
     if roughness_maps is not None:
         lights = None
         if knot_lights is not None:
             from .sampling_nodes import knot_lights_sum
 
-            geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+            geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
             lights = (*knot_lights, *knot_lights_sum(
                 b, *knot_lights, geometry.outputs["Normal"], geometry.outputs["Incoming"],
                 roughness_maps[0]))
@@ -298,7 +426,8 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     if runtime is not None:
         from .sampling_nodes import hybrid_value, runtime_parts, tangent_socket
 
-        geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+        b.checkpoint()
+        geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
         sampled, lights = runtime_parts(b, *runtime, geometry.outputs["Normal"],
                                         geometry.outputs["Incoming"], tangent_socket(b, tangent))
         if mean_value is not None and value is not None:
@@ -319,6 +448,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     if lamps:
         from .lamps import lamp_terms
         lamp_image, lamp_meta, lamp_objects, diffuse_colour = lamps
+        b.checkpoint()
         lamp_glossy, lamp_diffuse = lamp_terms(
             b, lamp_image, lamp_meta, lamp_objects,
             diffuse_colour if diffuse is not None else None, tangent)
@@ -329,6 +459,7 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
     if "glossy" in spatial:
         value = _multiply(b, value, _factor(b, *spatial["glossy"]))
     if diffuse is not None:
+        b.checkpoint()
         diffuse_value = _irradiance(b, *diffuse)
         if lamp_diffuse is not None:
             diffuse_value = _add(b, diffuse_value, lamp_diffuse)
@@ -345,39 +476,41 @@ def build_lookup(material, image, meta, diffuse=None, fresnel_ior=0.0, lamps=Non
         if diffuse_curve is not None:
             value = _add(b, value, _multiply(b, _view_curve(b, *diffuse_curve), diffuse_value))
         elif fresnel_ior > 1.0:
-            fresnel = b._place(tree.nodes.new("ShaderNodeFresnel"))
+            fresnel = b._place(b.nodes.new("ShaderNodeFresnel"))
             fresnel.inputs["IOR"].default_value = fresnel_ior
             value = b.mix(fresnel.outputs["Fac"], diffuse_value, value)
         else:
             value = _add(b, value, diffuse_value)
     if from_material and user_output is not None:
         from .emission import emission_value
+        b.checkpoint()
         emitted = emission_value(b, user_output.inputs["Surface"], spatial.get("coat_tint"))
         if emitted is not None:  # what the user's shaders emit (glossy_addon.emission)
             value = _add(b, value, emitted)
-    emission = b._place(tree.nodes.new("ShaderNodeEmission"))
-    b.link(value, emission.inputs["Color"])
-    emission.inputs["Strength"].default_value = 1.0
-    surface = emission.outputs[0]
-    alpha = None
-    if from_material and user_output is not None:
-        from .transparency import alpha_input
-        alpha = alpha_input(user_output.inputs["Surface"])
-    if alpha is not None:  # Cycles: Transparent BSDF x (1 - Alpha), the rest x Alpha
-        opacity, inverted = alpha
-        if inverted:
-            opacity = 1.0 - opacity if isinstance(opacity, float) else \
-                b.math("SUBTRACT", 1.0, opacity)
-        transparent = b._place(tree.nodes.new("ShaderNodeBsdfTransparent"))
-        mix = b._place(tree.nodes.new("ShaderNodeMixShader"))
-        b.link(opacity, mix.inputs["Fac"])
-        b.link(transparent.outputs[0], mix.inputs[1])
-        b.link(surface, mix.inputs[2])
-        surface = mix.outputs[0]
-    output = b._place(tree.nodes.new("ShaderNodeOutputMaterial"))
-    output.target = "ALL"
-    b.link(surface, output.inputs["Surface"])
-    _finish(tree, user_nodes, output, spatial.get("normal"), b.placed)
+    with b.at_root():  # the shaders and the output: in the material's own tree
+        emission = b._place(b.nodes.new("ShaderNodeEmission"))
+        b.link(value, emission.inputs["Color"])
+        emission.inputs["Strength"].default_value = 1.0
+        surface = emission.outputs[0]
+        alpha = None
+        if from_material and user_output is not None:
+            from .transparency import alpha_input
+            alpha = alpha_input(user_output.inputs["Surface"])
+        if alpha is not None:  # Cycles: Transparent BSDF x (1 - Alpha), the rest x Alpha
+            opacity, inverted = alpha
+            if inverted:
+                opacity = 1.0 - opacity if isinstance(opacity, float) else \
+                    b.math("SUBTRACT", 1.0, opacity)
+            transparent = b._place(b.nodes.new("ShaderNodeBsdfTransparent"))
+            mix = b._place(b.nodes.new("ShaderNodeMixShader"))
+            b.link(opacity, mix.inputs["Fac"])
+            b.link(transparent.outputs[0], mix.inputs[1])
+            b.link(surface, mix.inputs[2])
+            surface = mix.outputs[0]
+        output = b._place(b.nodes.new("ShaderNodeOutputMaterial"))
+        output.target = "ALL"
+        b.link(surface, output.inputs["Surface"])
+    _finish(tree, user_nodes, output, spatial.get("normal"), b)
     material["glossy_lookup_version"] = GROUP_VERSION
     return material
 
@@ -415,16 +548,43 @@ def user_output(material):
 
 
 def _remove_lookup(tree):
-    """Remove Glossy's nodes and the drivers on them (the lamp terms') from ``tree``."""
-    names = {node.name for node in tree.nodes if is_lookup_node(node)}
+    """Remove Glossy's nodes and the drivers on them (the lamp terms') from ``tree``,
+    and the private groups of a split lookup (:data:`PART_TAG`) no material uses
+    any more (a copy of the material still does)."""
+    lookup = [node for node in tree.nodes if is_lookup_node(node)]
+    names = {node.name for node in lookup}
+    parts = {node.node_tree.name: node.node_tree for node in lookup
+             if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
+             and node.node_tree.get(PART_TAG)}
     data = tree.animation_data
     if data is not None:
         for curve in list(data.drivers):
             path = curve.data_path
             if path.startswith('nodes["') and path[7:path.find('"]')] in names:
                 data.drivers.remove(curve)
-    for node in [n for n in tree.nodes if n.name in names]:
+    for node in lookup:
         tree.nodes.remove(node)
+    for group in parts.values():
+        if group.users == 0:
+            bpy.data.node_groups.remove(group)
+
+
+def lookup_nodes(material):
+    """Every node of ``material``'s lookup: Glossy's nodes in its tree and those in
+    the private groups a large lookup is split into (not the shared groups')."""
+    if material.node_tree is None:
+        return []
+    found = []
+    for node in material.node_tree.nodes:
+        if not is_lookup_node(node):
+            continue
+        group = getattr(node, "node_tree", None)
+        if group is not None and group.get(PART_TAG):
+            found.extend(n for n in group.nodes
+                         if n.bl_idname not in ("NodeGroupInput", "NodeGroupOutput"))
+        else:
+            found.append(node)
+    return found
 
 
 def strip_lookup(material) -> bool:
@@ -442,15 +602,16 @@ def strip_lookup(material) -> bool:
     return True
 
 
-def _finish(tree, user_nodes, output, normal=None, placed=None):
+def _finish(tree, user_nodes, output, normal=None, builder=None):
     """Tag the nodes added since ``user_nodes``, move them right of the user's
-    (``placed``: {name: x} of nodes a deferred _Builder placed, at y 0), make
+    (``builder``: the deferred _Builder that placed them at y 0, each tree's in
+    one ``foreach_set``: node by node, each set updates the whole tree), make
     ``output`` the active one and feed ``normal`` (a socket of the user's nodes)
-    to every lookup in place of the geometric normal. The locations are set in
-    one ``foreach_set``: node by node, each set updates the whole tree."""
+    to every lookup in place of the geometric normal."""
     import numpy as np
 
-    placed = placed or {}
+    placed = builder.placed if builder is not None and builder.placed else {}
+    parts = builder.parts if builder is not None else []
     nodes = tree.nodes
     locations = np.zeros((len(nodes), 2), np.float32)
     nodes.foreach_get("location", locations.ravel())
@@ -464,16 +625,25 @@ def _finish(tree, user_nodes, output, normal=None, placed=None):
             locations[index] = (placed[name], 0.0)
     locations[~user] += (right, -600.0)
     nodes.foreach_set("location", locations.ravel())
+    for part in parts:
+        inside = part.tree.nodes
+        spots = np.array([part.placed.get(node.name, 0.0) for node in inside], np.float32)
+        spots = np.stack([spots - spots.min(), np.zeros_like(spots)], axis=1)
+        spots[[node == part.group_out for node in inside], 0] = spots[:, 0].max() + 300.0
+        spots[[node == part.group_in for node in inside], 0] = -300.0
+        inside.foreach_set("location", spots.ravel())
     for node, is_user in zip(nodes, user, strict=True):
         if not is_user:
             node[TAG] = True
     output.is_active_output = True
     if normal is not None:
-        for link in list(tree.links):
-            if is_lookup_node(link.from_node) and \
-                    link.from_node.bl_idname == "ShaderNodeNewGeometry" and \
-                    link.from_socket.name == "Normal":
-                tree.links.new(normal, link.to_socket)
+        for inner in [tree] + [part.tree for part in parts]:
+            for link in list(inner.links):
+                if (inner != tree or is_lookup_node(link.from_node)) and \
+                        link.from_node.bl_idname == "ShaderNodeNewGeometry" and \
+                        link.from_socket.name == "Normal":
+                    inner.links.new(builder.reach(normal, inner) if parts else normal,
+                                    link.to_socket)
 
 
 def _factor(b, socket, mean):
@@ -513,6 +683,7 @@ def _combined_maps(b, roughness, maps, inputs=None, at_mean=False, lights=None):
     def combined(colour, metallic, tinted):
         values = []
         for knot in knots:
+            b.checkpoint()
             found = lookups[knot]
             if None in found or GLOSSY in found:
                 value = found.get(None, found.get(GLOSSY))
@@ -533,6 +704,7 @@ def _combined_maps(b, roughness, maps, inputs=None, at_mean=False, lights=None):
             values.append(value)
         if len(knots) == 1:
             return values[0]
+        b.checkpoint()
         return _roughness_blend(b, roughness, knots, values)
 
     inputs = inputs or {}
@@ -690,8 +862,8 @@ def _environment(b, image, meta):
     mus = [float(m) for m in meta["mu"]]
     if count < 2 or any(abs(mus[k] - k / (count - 1)) > 1e-9 for k in range(1, count)):
         raise ValueError("the atlas's slices must sit at mu = k / (K - 1)")
-    tree = b.tree
-    geometry = b._place(tree.nodes.new("ShaderNodeNewGeometry"))
+    b.checkpoint()
+    geometry = b._place(b.nodes.new("ShaderNodeNewGeometry"))
     normal, view = geometry.outputs["Normal"], geometry.outputs["Incoming"]
     lobes = 1 if two_d else int(meta.get("lobes", 1))
     atlas_cols = float(width + (4 if two_d else 3))

@@ -50,7 +50,9 @@ def test_every_lamp_kind_lights_the_factored_brdf_as_cycles_does(tmp_path):
     truth_brightest = np.unravel_index(np.argmax(metrics.luminance(reference) * mask),
                                        mask.shape)
     assert np.abs(np.subtract(brightest, truth_brightest)).max() <= 1
-    # The point lamp moved after attach: the drivers follow it (no re-attach).
+    # The point lamp moved after attach: the drivers follow it (no re-attach), in the
+    # private node group this lookup's lamp terms went to (glossy_addon.nodes.PART_NODES).
+    assert "point" in r["lamps_in_groups"]
     moved = metrics.relative_rms(_image(r["glossy_moved"])[..., :3],
                                  _image(r["truth_moved"])[..., :3], mask)
     assert moved <= glossy_error + 0.03 + 2 * noise

@@ -87,6 +87,11 @@ def test_knot_lights_nodes_match_the_numpy_twin_at_every_pixel_s_roughness(tmp_p
     low, high = result["roughness"]
     assert low < 0.25 and high > 0.55  # below, between and above the knots
     assert result["light_share"] > 0.1 and result["light_peak"] > 1.0
+    # This lookup (185 nodes) is split: the second knot's map and the lights' scale
+    # went on in a private node group (glossy_addon.nodes.PART_NODES), its sockets
+    # carried through the group's interface, and the pixels are the NumPy twin's all
+    # the same (the figures below are those measured before the split).
+    assert result["parts"] and result["root"] + sum(result["parts"]) > 150
     assert result["median"] < 3e-3
     assert result["p99"] < 2e-2
     assert result["max"] < 5e-2

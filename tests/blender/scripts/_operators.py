@@ -1,6 +1,8 @@
 """Small helpers the Blender test scripts share: running an operator as a user's
 script does, giving an object a World Only probe, and a one-shader material."""
 
+import math
+
 import bpy
 
 
@@ -166,3 +168,17 @@ def validation_scene(hdri, workdir, resolution, reference=True):
     settings.validate_eevee_samples = 4
     settings.validate_reference = reference
     return scene
+
+
+def roughness_image():
+    """A 64 x 32 Non-Color image: Roughness 0.15-0.5 in four smooth bands along U."""
+    image = bpy.data.images.new("Roughness bands", 64, 32, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    values = []
+    for _ in range(32):
+        for column in range(64):
+            r = 0.15 + 0.35 * (0.5 + 0.5 * math.sin(2.0 * math.pi * 4.0 * (column + 0.5) / 64))
+            values += [r, r, r, 1.0]
+    image.pixels.foreach_set(values)
+    image.pack()
+    return image

@@ -26,6 +26,7 @@ from _operators import run  # noqa: E402
 from glossy.glossy_addon.bookkeeping import bake_status  # noqa: E402
 from glossy.glossy_addon.emission import emission_changed  # noqa: E402
 from glossy.glossy_addon.material_source import changed_inputs, derive  # noqa: E402
+from glossy.glossy_addon.nodes import lookup_nodes  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -75,7 +76,7 @@ result["bake"] = run(bpy.ops.glossy.bake_materials)
 result["attach"] = run(bpy.ops.glossy.attach_materials)
 result["status_after_bake"] = bake_status(material.glossy, sphere.glossy.probe_path)
 result["curve_nodes"] = sum(n.bl_idname == "ShaderNodeRGBCurve"
-                            for n in material.node_tree.nodes)
+                            for n in lookup_nodes(material))
 result["spec_after_attach"] = derive(material).spec  # read from the user's kept nodes
 result["user_nodes_kept"] = sorted(n.bl_idname for n in material.node_tree.nodes
                                    if not n.get("glossy_lookup"))

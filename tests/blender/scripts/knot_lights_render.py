@@ -26,7 +26,12 @@ import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from _ortho_sphere import eevee_renders, emission_material, ortho_sphere_scene  # noqa: E402
 from glossy.bake import atlas, envmap, exr, knot_lights, prefilter, probe_lights  # noqa: E402
-from glossy.glossy_addon.nodes import GEOMETRIC_FLOOR, build_lookup, load_atlas  # noqa: E402
+from glossy.glossy_addon.nodes import (  # noqa: E402
+    GEOMETRIC_FLOOR,
+    PART_TAG,
+    build_lookup,
+    load_atlas,
+)
 
 KNOTS = (0.3, 0.5)
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -106,7 +111,10 @@ predicted, without = blend(values), blend(unlit)
 rendered = renders["lookup"][on_sphere]
 relative = np.abs(rendered - predicted) / np.maximum(np.abs(predicted), 1e-3)
 with open(result_path, "w") as handle:
-    json.dump({"pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
+    json.dump({"parts": [len(group.nodes) for group in bpy.data.node_groups
+                         if group.get(PART_TAG)],
+               "root": len(lookup.node_tree.nodes),
+               "pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
                "p99": float(np.percentile(relative, 99)), "max": float(relative.max()),
                "lights": len(lights), "roughness": [float(r.min()), float(r.max())],
                "light_share": float(1.0 - np.mean(without) / np.mean(predicted)),

@@ -29,6 +29,7 @@ import bpy  # noqa: E402
 import glossy  # noqa: E402
 from _ortho_sphere import add_sphere_and_camera  # noqa: E402
 from glossy.glossy_addon import lamps, scenes, validation  # noqa: E402
+from glossy.glossy_addon.nodes import lookup_nodes  # noqa: E402
 
 RESOLUTION = 64
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -258,8 +259,10 @@ scene.collection.objects.link(late)
 report["changed_after_adding"] = lamps.lamp_set_changed(material, scene)
 bpy.ops.glossy.attach_materials()
 report["changed_after_reattach"] = lamps.lamp_set_changed(material, scene)
-report["lamp_nodes"] = sorted(n.get("glossy_lamp", "") for n in material.node_tree.nodes
+report["lamp_nodes"] = sorted(n.get("glossy_lamp", "") for n in lookup_nodes(material)
                               if "glossy_lamp" in n)
+report["lamps_in_groups"] = sorted(n.get("glossy_lamp", "") for n in lookup_nodes(material)
+                                   if "glossy_lamp" in n and n.id_data != material.node_tree)
 settings.lamp_terms = 0
 before = sorted(p.name for p in (workdir / "glossy").iterdir())
 try:

@@ -38,6 +38,7 @@ from _operators import (  # noqa: E402
 )
 from glossy.bake import exr  # noqa: E402
 from glossy.glossy_addon.material_source import parts  # noqa: E402
+from glossy.glossy_addon.nodes import lookup_nodes  # noqa: E402
 
 if "without" in sys.argv[3:-1]:  # the lookup without the emission (the figures before)
     from glossy.operators import bake_materials
@@ -187,7 +188,7 @@ result_path.write_text(json.dumps({
                         packed.data.materials[0].glossy.runtime_path).get("precision"),
                     "reason": packed.data.materials[0].glossy.size_reason,
                     "groups": sorted({node.node_tree.name for node in
-                                      packed.data.materials[0].node_tree.nodes
+                                      lookup_nodes(packed.data.materials[0])
                                       if node.bl_idname == "ShaderNodeGroup"})},
     "changed": [changed_before, changed_after],
     "alpha_changed": alpha_changed,

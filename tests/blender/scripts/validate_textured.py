@@ -22,25 +22,14 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _operators import isolated_sphere, shader_material, validation_scene  # noqa: E402
+from _operators import (  # noqa: E402
+    isolated_sphere,
+    roughness_image,
+    shader_material,
+    validation_scene,
+)
 
 scene = validation_scene(hdri, workdir, 128)
-
-
-def roughness_image():
-    """A 64 x 32 Non-Color image: Roughness 0.15-0.5 in four smooth bands along U."""
-    import math
-
-    image = bpy.data.images.new("Roughness bands", 64, 32, float_buffer=True)
-    image.colorspace_settings.name = "Non-Color"
-    values = []
-    for _ in range(32):
-        for column in range(64):
-            r = 0.15 + 0.35 * (0.5 + 0.5 * math.sin(2.0 * math.pi * 4.0 * (column + 0.5) / 64))
-            values += [r, r, r, 1.0]
-    image.pixels.foreach_set(values)
-    image.pack()
-    return image
 
 
 def sphere(name, x, metallic, bump=False, rough=False):
