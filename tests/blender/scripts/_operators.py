@@ -182,3 +182,14 @@ def roughness_image():
     image.pixels.foreach_set(values)
     image.pack()
     return image
+
+
+def checker_into(tree, socket, scale=5.0, first=(0.95, 0.55, 0.1), second=(0.05, 0.2, 0.6)):
+    """Link a new Checker Texture of two colours far apart (what one value cannot
+    stand for) at ``scale`` into ``socket`` (a Base Color) of ``tree``."""
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = scale
+    checker.inputs["Color1"].default_value = (*first, 1.0)
+    checker.inputs["Color2"].default_value = (*second, 1.0)
+    tree.links.new(checker.outputs["Color"], socket)
+    return checker

@@ -21,7 +21,12 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
-from _operators import isolated_sphere, roughness_image, validation_scene  # noqa: E402
+from _operators import (  # noqa: E402
+    checker_into,
+    isolated_sphere,
+    roughness_image,
+    validation_scene,
+)
 from glossy.glossy_addon import validation  # noqa: E402
 from glossy.glossy_addon.nodes import PART_TAG, is_lookup_node, lookup_nodes  # noqa: E402
 
@@ -32,8 +37,7 @@ material.use_nodes = True
 tree = material.node_tree
 principled = tree.nodes["Principled BSDF"]
 principled.inputs["Metallic"].default_value = 1.0
-checker = tree.nodes.new("ShaderNodeTexChecker")
-tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+checker_into(tree, principled.inputs["Base Color"])
 texture = tree.nodes.new("ShaderNodeTexImage")
 texture.image = roughness_image()
 tree.links.new(texture.outputs["Color"], principled.inputs["Roughness"])

@@ -28,6 +28,7 @@ from pathlib import Path
 hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
+from _operators import checker_into  # noqa: E402
 from _ortho_sphere import eevee_renders, ortho_sphere_scene  # noqa: E402
 from glossy.glossy_addon import nodes  # noqa: E402
 from glossy.glossy_addon.scenes import environment_world  # noqa: E402
@@ -66,11 +67,8 @@ def metal(name):
         material.glossy.method = "3d"
         material.glossy.slices = 8
     else:
-        checker = tree.nodes.new("ShaderNodeTexChecker")
-        checker.inputs["Scale"].default_value = 3.0
-        checker.inputs["Color1"].default_value = (0.9, 0.6, 0.2, 1.0)
-        checker.inputs["Color2"].default_value = (0.1, 0.3, 0.8, 1.0)
-        tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+        checker_into(tree, principled.inputs["Base Color"], 3.0, (0.9, 0.6, 0.2),
+                     (0.1, 0.3, 0.8))
     material.glossy.model = "MATERIAL"
     return material
 

@@ -23,6 +23,7 @@ hdri, workdir, result_path = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[-1])
 import _checkout  # noqa: F401,E402  (makes ``import glossy`` the repository)
 import bpy  # noqa: E402
 from _operators import (  # noqa: E402
+    checker_into,
     isolated_sphere,
     roughness_image,
     shader_material,
@@ -56,11 +57,7 @@ def sphere(name, x, metallic, bump=False, rough=False):
         same.inputs[0].default_value, same.inputs[1].default_value = 0.3, 0.0
         tree.links.new(same.outputs[0], principled.inputs["Roughness"])
     else:
-        checker = tree.nodes.new("ShaderNodeTexChecker")
-        checker.inputs["Scale"].default_value = 5.0
-        checker.inputs["Color1"].default_value = (0.95, 0.55, 0.1, 1.0)
-        checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
-        tree.links.new(checker.outputs["Color"], principled.inputs["Base Color"])
+        checker_into(tree, principled.inputs["Base Color"])
     if rough:  # and the roughness from an image, as a PBR texture set has it
         texture = tree.nodes.new("ShaderNodeTexImage")
         texture.image = roughness_image()
