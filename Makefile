@@ -18,12 +18,15 @@ demo: $(STAMP)
 
 # Two workers, one test file each at a time (module fixtures stay whole); single-threaded
 # OpenBLAS, whose idle threads would spin against the other worker. The tests that time
-# how fast a stop is (marked serial) run alone afterwards.
+# how fast a stop is (marked serial) run alone afterwards. The Blender chroot for the
+# blender-executable tests is made in the background meanwhile (build/debian-blender.log);
+# those tests wait for it (tools/debian_blender.py takes turns on a lock).
 TEST_WORKERS ?= 2
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) tools/debian_blender.py provision --if-possible
+	@mkdir -p build
+	$(PY) tools/debian_blender.py provision --if-possible > build/debian-blender.log 2>&1 &
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile -m "not serial"
 	$(PY) -m pytest -m serial
 

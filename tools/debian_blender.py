@@ -17,6 +17,8 @@ packages come from the Debian archive that the host's apt already uses.
 """
 
 import argparse
+import contextlib
+import fcntl
 import os
 import shutil
 import subprocess
@@ -107,8 +109,30 @@ def write_wrappers(home: Path = HOME) -> Path:
     return home / "blender"
 
 
+@contextlib.contextmanager
+def _only_one_at_a_time(home: Path):
+    """Hold an exclusive lock on ``home``/lock: a second provision (``make test``
+    starts one in the background, and the tests' fixture calls it) waits for the
+    first and then finds the chroot made."""
+    home.mkdir(parents=True, exist_ok=True)
+    with open(home / "lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def provision(home: Path = HOME, log=print) -> Path:
-    """Make the chroot once (about a minute, 1.4 GB) and return the wrapper's path."""
+    """Make the chroot once (about a minute, 1.4 GB) and return the wrapper's path.
+
+    Safe to call from several processes at once: they take turns, and only the
+    first makes the chroot."""
+    with _only_one_at_a_time(home):
+        return _provision(home, log)
+
+
+def _provision(home: Path, log) -> Path:
     root = home / "root"
     stamp = home / "ready"
     if stamp.exists() and stamp.read_text().strip() == STAMP:
