@@ -196,10 +196,10 @@ def test_a_coated_metal_s_colour_split_beats_its_one_map_bake(colour_split):
     # colours 0 and 1 and of the coat alone, C + W(mu) (R_0 + c (R_1 - R_0)) m.
     # Each map holds one lobe shape, so the chain measured 13.6% where the
     # colour typed in (one map of narrow coat plus metal, fitted as one lobe)
-    # measured 21.5%; native EEVEE 5.0% (the coat's near-mirror lobe reflects
-    # sunset's sun wider in a 384-row map than in Cycles). Those are at pixel
-    # centres, as validation renders EEVEE since stop 32; with EEVEE's 1.5 px
-    # film filter they were 6.9% and 9.6% (native 5.1%).
+    # measured 21.5%; native EEVEE 5.0%: the near-mirror coat reflects sunset's
+    # sun from this test's 64 px probe (at Auto's 256 px probe: 2.1% and 4.1%,
+    # README). Those are at pixel centres, as validation renders EEVEE since
+    # stop 32; with EEVEE's 1.5 px film filter they were 6.9% and 9.6%.
     coated, typed = colour_split["Coat Chain"], colour_split["Coat Direct"]
     for result in (coated, typed):
         assert [s[0] for s in result["steps"]] == [["FINISHED"]] * 4, result
