@@ -223,3 +223,23 @@ def choose_probe_face(half_widths, maximum, world_rows=None) -> Choice:
         face, limited_by = int(maximum), "maximum"
         reason = f"{face} px faces: limited by Max Probe Resolution (Auto wanted {wanted})"
     return Choice(face, reason, limited_by)
+
+
+def fixed_face_reason(size, half_widths, maximum, world_rows=None) -> str:
+    """The reason shown for a probe face of ``size`` px set by hand.
+
+    When the lobes of widths ``half_widths`` (rad) would get finer faces under
+    Auto (:func:`choose_probe_face`, up to ``maximum`` px and, for a world-only
+    probe, the world image's own detail ``world_rows``), the reason names that
+    face: such a probe limits the reflection however many rows its maps have
+    (a near-mirror coat from a 64 px probe: 13.6% from Cycles, 2.1% from Auto's
+    256 px; docs/HISTORY.md, stop 65).
+    """
+    reason = f"{int(size)} px faces: set by hand"
+    if len(half_widths):
+        wanted = choose_probe_face(half_widths, maximum, world_rows).value
+        if wanted > int(size):
+            reason += (f"; Auto would capture {wanted} px for the narrowest lobe (width "
+                       f"{math.degrees(float(min(half_widths))):.2f} deg), which this "
+                       f"probe's texels blur")
+    return reason

@@ -71,13 +71,14 @@ def _face_size(context, obj):
             else "probe resolution"
         raise BakeError(f"{obj.name}: {kind} must be between {MIN_RESOLUTION} "
                         f"and {MAX_RESOLUTION}, not {size}")
-    if settings.probe_size_mode == "FIXED":
-        return size, f"{size} px faces: set by hand", None
     image = find_environment_image(context.scene.world)
     world_rows = None
-    if settings.probe_source == "WORLD":
+    if settings.probe_source == "WORLD" and image is not None:
         world_rows = int(image.size[1])
     widths = _lobe_widths(obj)
+    if settings.probe_size_mode == "FIXED":
+        return size, resolution.fixed_face_reason(size, widths, MAX_RESOLUTION,
+                                                  world_rows), None
     choice = resolution.choose_probe_face(widths, size, world_rows)
     face = max(MIN_RESOLUTION, choice.value)
     detail = None

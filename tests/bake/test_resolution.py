@@ -85,6 +85,19 @@ def test_probe_face_follows_the_lobe_within_the_world_detail_and_the_maximum():
         resolution.rows_for_half_width(0.0)
 
 
+def test_a_face_set_by_hand_names_the_face_auto_would_capture_when_finer():
+    # The same rule as Auto (above): 16 / sqrt(0.0066) = 197 -> 200 px, within a
+    # World Only probe's 512-row world (328 px) and the maximum.
+    coarse = resolution.fixed_face_reason(64, [0.0066, 0.05], 4096, world_rows=512)
+    assert coarse == ("64 px faces: set by hand; Auto would capture 200 px for the narrowest "
+                      "lobe (width 0.38 deg), which this probe's texels blur")
+    # Past the world's own detail a finer face adds nothing: 328 px, not 1000.
+    assert "Auto would capture 328 px" in resolution.fixed_face_reason(64, [0.001], 4096, 512)
+    # Faces as fine as Auto's, or no Glossy lobe: nothing more to say.
+    assert resolution.fixed_face_reason(256, [0.0066], 4096) == "256 px faces: set by hand"
+    assert resolution.fixed_face_reason(16, [], 4096) == "16 px faces: set by hand"
+
+
 def test_at_the_auto_face_the_probe_stops_limiting_a_wide_lobe(hdri_dir):
     """GGX 0.6 on a 24 px isolated sphere in studio.exr (softboxes: sharp edges):
     the brute-force integral over the probe at the Auto face (32 px for this

@@ -204,4 +204,11 @@ def test_a_coated_metal_s_colour_split_beats_its_one_map_bake(colour_split):
     for result in (coated, typed):
         assert [s[0] for s in result["steps"]] == [["FINISHED"]] * 4, result
     assert coated["maps"] == ["c0", "c1", "coat"]
+    # The probe, not the map, is what limits the coat here, and the capture says so
+    # (bake.resolution.fixed_face_reason: Auto's face for the coat's lobe, capped
+    # by sunset.exr's own detail).
+    for result in (coated, typed):
+        reason = result["probe_reason"]
+        assert reason.startswith("64 px faces: set by hand; Auto would capture "), reason
+        assert int(reason.split("Auto would capture ")[1].split(" px")[0]) >= 256, reason
     assert coated["glossy"] < typed["glossy"] + 2 * typed["noise"]

@@ -135,6 +135,7 @@ for name, (steps, figures) in validate_together(spheres, workdir, 4, 2.5).items(
     glossy_error, native_error = errors(figures)
     result[name] = {
         "steps": steps, "spec": material.glossy.brdf_spec(),
+        "probe_reason": spheres[name].glossy.probe_reason,
         "approximated": list(parts(material).derived.approximated),
         "glossy": glossy_error, "native": native_error,
         "bias": figures["methods"]["eevee_glossy"].get("bias"),
