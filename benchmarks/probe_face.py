@@ -15,10 +15,16 @@ their curves do not fall steadily; bake.probe_lights carries those.
 ``--world``: instead, what glossy.capture_probes' Auto does for a Hybrid GGX
 material in each world: the lobe rule's face, then bake.probe_detail's ladder
 of faces with the probe's error on the world image at each, up to the world's
-own detail, and the face chosen.
+own detail, and the face chosen, with the measure's time and the time the
+capture then takes for its probe (converted again, as before stop 67, or
+kept from the measure, as now). ``--baseline`` also measures each world as
+before stop 67 (coarse tiers converted from the probe's pyramid, lat-long
+maps resampled per sub-sample) in the same run, and prints the ratio.
 """
 
 import argparse
+import contextlib
+import importlib
 import sys
 import time
 from pathlib import Path
@@ -41,8 +47,29 @@ def auto_face(spec):
     return resolution.choose_probe_face([narrowest], maximum=4096).value, narrowest
 
 
-def world_faces(roughnesses, hdris):
-    """Print bake.probe_detail's choice per roughness and HDRI (the capture's Auto)."""
+@contextlib.contextmanager
+def _before_stop_67():
+    """bake.probe_detail's measure as it was before stop 67, for the baseline: every
+    lat-long tier converted from the probe's pyramid (not reduced from the finer
+    tier) and lat-long maps resampled per sub-sample (not separably); nothing
+    remembered from the measure just made."""
+    from bake.probe_maps import ProbeMaps
+
+    convert_module = importlib.import_module("bake.envmap.convert")
+    saved = probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG
+    probe_detail._ExactMaps.convert = ProbeMaps.convert
+    convert_module.SEPARABLE_LATLONG = False
+    probe_detail._MEASURED.clear()
+    try:
+        yield
+    finally:
+        probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG = saved
+        probe_detail._MEASURED.clear()
+
+
+def world_faces(roughnesses, hdris, baseline=False):
+    """Print bake.probe_detail's choice per roughness and HDRI (the capture's Auto);
+    with ``baseline`` also the measure before stop 67, timed in the same run."""
     for roughness in roughnesses:
         fit = lobes.fit(f"ggx:roughness={roughness}", slices=16)
         widths = [resolution.lobe_half_width(lobes.GAMMA, lobe.profile)
@@ -59,8 +86,27 @@ def world_faces(roughnesses, hdris):
             cap = resolution.world_detail_face(world.shape[0])
             face, _, tried = probe_detail.choose_world_face(world, width, lobe_face,
                                                             max(cap, lobe_face))
+            measured = time.perf_counter() - start
+            before = ""
+            if baseline:
+                with _before_stop_67():
+                    start = time.perf_counter()
+                    old = probe_detail.choose_world_face(world, width, lobe_face,
+                                                         max(cap, lobe_face))
+                    seconds = time.perf_counter() - start
+                before = (f"; before stop 67 {seconds:.1f} s ({seconds / measured:.1f}x), "
+                          + " ".join(f"{f}:{e:.3f}" for f, e in old[2]) + f" -> {old[0]}")
+            # The capture's probe at the chosen face: converted again (before stop 67)
+            # and taken from the measure (glossy_addon.world.world_cube now).
+            start = time.perf_counter()
+            envmap.convert(world, "latlong", "cube", face)
+            again = time.perf_counter() - start
+            start = time.perf_counter()
+            assert probe_detail.measured_probe(world, face) is not None
+            kept = time.perf_counter() - start
             print(f"  {name:10s} " + " ".join(f"{f}:{e:.3f}" for f, e in tried)
-                  + f"  -> {face}   ({time.perf_counter() - start:.1f} s)", flush=True)
+                  + f"  -> {face}   (measure {measured:.1f} s; capture's probe "
+                  f"{again:.2f} s converted again, {kept:.2f} s kept{before})", flush=True)
 
 
 def main():
@@ -71,11 +117,13 @@ def main():
     parser.add_argument("--hdri", action="append", help="HDRI stem (repeatable; default all)")
     parser.add_argument("--world", action="store_true",
                         help="print the world-detail choice (bake.probe_detail) instead")
+    parser.add_argument("--baseline", action="store_true",
+                        help="with --world: also time the measure as it was before stop 67")
     args = parser.parse_args()
     faces = [int(f) for f in args.faces.split(",")]
     hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
     if args.world:
-        return world_faces([float(r) for r in args.roughness.split(",")], hdris)
+        return world_faces([float(r) for r in args.roughness.split(",")], hdris, args.baseline)
     normals, views, mask = reference.sphere_buffers(args.size)
     normals, views = normals[mask], views[mask]
     for roughness in (float(r) for r in args.roughness.split(",")):

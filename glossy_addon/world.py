@@ -266,7 +266,13 @@ def world_cube(world, size: int) -> np.ndarray:
     transform = mapping.texture_directions if mapping.moves_directions else None
     pixels = world_pixels(image)
     world_digest(image, pixels)  # kept for the probe's metadata and the bake (unchanged image)
-    cube = envmap.convert(pixels, "latlong", "cube", int(size), transform=transform)
+    cube = None
+    if transform is None:  # the probe Auto's measure made at this face, if it did
+        from ..bake import probe_detail
+
+        cube = probe_detail.measured_probe(pixels, size)
+    if cube is None:
+        cube = envmap.convert(pixels, "latlong", "cube", int(size), transform=transform)
     if mapping.strength != 1.0:
         cube *= np.float32(mapping.strength)
     _CUBE[:] = [key, cube.copy()] if key is not None else [None, None]

@@ -31,6 +31,10 @@ __all__ = ["convert", "convert_texels", "convert_changed", "reduction_count", "r
 CHECK_TEXELS = 256
 CHECK_TOLERANCE = 1e-4
 LOCAL_SHARE = 0.5
+#: convert's lat-long to lat-long resampling computed separably
+#: (LatLong.resampled); False takes the per-sub-sample path every other pair of
+#: layouts takes (benchmarks/probe_face.py times both).
+SEPARABLE_LATLONG = True
 #: Sub-samples evaluated per work item (bounds memory to a few hundred MB).
 _CHUNK_SAMPLES = 1 << 18
 MAX_SUPERSAMPLING = 8
@@ -136,7 +140,14 @@ def convert(image, src, dst, size, *, samples: int | None = None, progress: Prog
     node, bake.world_mapping); None looks up the same direction.
     Returns a float32 (H', W', C) image; radiance is never clamped.
     """
-    sample, target, shape, k, channels = _plan(image, src, dst, size, samples, transform)
+    source, target, image, shape, k, spacing = _prepare(image, src, dst, size, samples)
+    if source.name == target.name == "latlong" and transform is None and SEPARABLE_LATLONG:
+        # Lat-long to lat-long at the same directions: the same resampling with
+        # rows and columns apart (LatLong.resampled), 3-9x faster here.
+        result = source.resampled(image, shape[0], k, spacing)
+        report(progress, 1.0, f"resampled {shape[0]} rows")
+        return result
+    sample, channels = _sampler(source, image, spacing, transform), image.shape[2]
     return resample(sample, target, shape, k, channels, progress)
 
 
@@ -172,8 +183,9 @@ def convert_texels(image, src, dst, size, ys, xs, *, samples: int | None = None,
     return out
 
 
-def _plan(image, src, dst, size, samples, transform):
-    """(sample, target layout, target shape, k, channels) of a conversion."""
+def _prepare(image, src, dst, size, samples):
+    """(source layout, target layout, checked and prereduced float32 image, target
+    shape, sub-samples per texel side k, the sampler's row-prefilter spacing)."""
     from . import get_layout
 
     source, target = get_layout(src), get_layout(dst)
@@ -186,13 +198,26 @@ def _plan(image, src, dst, size, samples, transform):
     if not 1 <= int(k) <= 64:
         raise BakeError(f"samples must be between 1 and 64, not {k}")
     spacing = math.sqrt(4.0 * math.pi / target.covered_texels(shape)) / k
-    sample = source.sampler(image, spacing)
-    if transform is not None:
-        lookup = sample
+    return source, target, image, shape, int(k), spacing
 
-        def sample(directions):
-            return lookup(transform(directions))
-    return sample, target, shape, int(k), image.shape[2]
+
+def _sampler(source, image, spacing, transform):
+    """``sample(directions) -> (..., C)``: the source's bilinear lookups (through
+    ``transform`` when given)."""
+    sample = source.sampler(image, spacing)
+    if transform is None:
+        return sample
+
+    def transformed(directions):
+        return sample(transform(directions))
+
+    return transformed
+
+
+def _plan(image, src, dst, size, samples, transform):
+    """(sample, target layout, target shape, k, channels) of a conversion."""
+    source, target, image, shape, k, spacing = _prepare(image, src, dst, size, samples)
+    return _sampler(source, image, spacing, transform), target, shape, k, image.shape[2]
 
 
 def _reduced_mask(mask, layout: Layout, count: int):

@@ -148,6 +148,58 @@ class LatLong(Layout):
         across = padded[y0] * (1 - fy) + padded[y0 + 1] * fy  # (height, w + 2, C)
         return across[:, x0] * (1 - fx) + across[:, x0 + 1] * fx
 
+    def resampled(self, image, height, k, spacing=None):
+        """(height, 2 height, C) float32: bake.envmap.convert.resample of :meth:`sampler`
+        (``spacing`` as there) onto a height x 2 height lat-long grid with k x k
+        sub-samples per texel, each weighted by the target's Jacobian, computed
+        separably: a lat-long target's sub-sample rows share one source latitude
+        and its columns one longitude, and its Jacobian depends on the row alone,
+        so each texel's mean is the column sub-samples' mean lerp of two wrapped
+        columns, then the rows' Jacobian-weighted lerp of two pole-padded rows
+        (equal to resample to float32 rounding, the sums in another order;
+        k (H + 2 + height) 2 height lerps instead of (k height)^2 2 directions).
+        """
+        image = self.check_image(image)
+        if spacing is not None:
+            image = self._prefilter_rows(image, spacing)
+        rows_in, cols_in = image.shape[:2]
+        height, k = int(height), int(k)
+        offsets = (np.arange(k) + 0.5) / k
+        data = image.astype(np.float32, copy=False)
+        rows = np.concatenate([data[:1].mean(axis=1, keepdims=True).repeat(cols_in, 1), data,
+                               data[-1:].mean(axis=1, keepdims=True).repeat(cols_in, 1)], 0)
+        padded = np.concatenate([rows[:, -1:], rows, rows[:, :1]], axis=1)
+        # Columns: the sampler's x of each sub-sample's longitude (coords' arctan2).
+        x = (np.arange(2 * height)[:, None] + offsets[None, :]).reshape(-1)
+        phi = np.pi - 2.0 * np.pi * x / (2 * height)
+        u = 0.5 - np.arctan2(np.sin(phi), np.cos(phi)) / (2.0 * np.pi)
+        px = np.clip(np.mod(u, 1.0) * cols_in + 0.5, 0.0, cols_in + 1.0).reshape(2 * height, k)
+        x0 = np.minimum(px.astype(np.intp), cols_in)
+        fx = (px - x0).astype(np.float32)
+        across = np.zeros((rows_in + 2, 2 * height, data.shape[2]), np.float32)
+        for a in range(k):
+            t = fx[None, :, a, None]
+            across += padded[:, x0[:, a]] * (1 - t) + padded[:, x0[:, a] + 1] * t
+        across /= np.float32(k)
+        # Rows: the sampler's pole-padded y of each sub-sample's latitude, weighted by
+        # sin(theta) (the Jacobian's factor that varies; the rest cancels).
+        y = np.arange(height)[:, None] + offsets[None, :]  # (height, k)
+        theta = np.pi * y / height
+        ys = np.arccos(np.clip(np.cos(theta), -1.0, 1.0)) / np.pi * rows_in
+        south = rows_in + 1.0 - 2.0 * (rows_in - ys)
+        py = np.where(ys < 0.5, 2.0 * ys, np.where(ys > rows_in - 0.5, south, ys + 0.5))
+        py = np.clip(py, 0.0, rows_in + 1.0)
+        y0 = np.minimum(py.astype(np.intp), rows_in)
+        fy = (py - y0).astype(np.float32)
+        weights = np.sin(theta)
+        weights = (weights / weights.sum(axis=1, keepdims=True)).astype(np.float32)
+        out = np.zeros((height, 2 * height, data.shape[2]), np.float32)
+        for b in range(k):
+            t = fy[:, b, None, None]
+            out += weights[:, b, None, None] * (across[y0[:, b]] * (1 - t)
+                                                + across[y0[:, b] + 1] * t)
+        return out
+
     def near(self, directions, margin, shape):
         """(H, W) bool: the texels of a ``shape`` lat-long image whose centre lies within
         ``margin`` (rad; one for all, or one per direction (n,)) of any of

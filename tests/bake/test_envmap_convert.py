@@ -320,3 +320,29 @@ def test_a_change_over_most_of_the_map_converts_it_whole_without_the_original():
 
     got = convert_changed(original, changed, mask, "cube", 16)
     np.testing.assert_allclose(got, convert(changed, "cube", "latlong", 16), rtol=1e-6)
+
+
+@pytest.mark.parametrize(("source_rows", "rows", "samples"),
+                         [(64, 16, 8), (64, 200, None), (128, 37, 3), (128, 128, 4)])
+def test_latlong_to_latlong_is_the_per_sub_sample_resampling_computed_separably(
+        source_rows, rows, samples):
+    """convert between lat-long maps (LatLong.resampled: rows and columns apart) against
+    the per-sub-sample resampling every other pair of layouts takes (convert.resample
+    over the same sampler, with the same prereduction, sub-samples, polar row
+    prefilter and Jacobian weights): equal to float32 rounding (measured: at most
+    4e-7 of the largest value, the sums running in another order), downsampling
+    with the polar prefilter on (16 rows from 64 with 8 x 8 sub-samples),
+    upsampling, odd sizes and the same size. A lamp a texel wide makes a texel
+    missed or weighted wrongly show."""
+    import importlib
+
+    convert_module = importlib.import_module("bake.envmap.convert")
+    rng = np.random.default_rng(source_rows + rows)
+    image = rng.random((source_rows, 2 * source_rows, 3), dtype=np.float32)
+    image[source_rows // 3, source_rows // 2] = 500.0
+    separable = convert(image, "latlong", "latlong", rows, samples=samples)
+    sample, target, shape, k, channels = convert_module._plan(
+        image, "latlong", "latlong", rows, samples, None)
+    generic = convert_module.resample(sample, target, shape, k, channels)
+    assert separable.shape == generic.shape == (rows, 2 * rows, 3)
+    assert np.abs(separable - generic).max() <= 2e-6 * np.abs(generic).max()

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from bake import lobes, probe_detail, resolution
+from bake import envmap, lobes, probe_detail, resolution
 from bake.errors import BakeError
 
 
@@ -108,3 +108,25 @@ def test_a_world_measured_before_in_the_session_is_not_measured_again():
     assert len(again) > 1
     detail = probe_detail.WorldDetail(changed, width)
     assert [e for _, e in third[2]] == [detail.error(f) for f, _ in third[2]]
+
+
+def test_the_probe_each_face_was_measured_on_is_kept_for_the_capture():
+    """The World Only capture after a measure takes the chosen face's probe from the
+    measure (bake.envmap.convert of the world, the capture's own conversion) rather
+    than converting the world again: it must be that conversion to the bit, for
+    every face tried, and nothing for a face not tried or another world."""
+    width, lobe_face = 0.0558, 72
+    cap = resolution.world_detail_face(256)
+    world = _world(256, 2.3e4)  # a world no other test measures
+    face, _, tried = probe_detail.choose_world_face(world, width, lobe_face, cap)
+    assert len(tried) > 1
+    for tried_face, _ in tried:
+        kept = probe_detail.measured_probe(world.copy(), tried_face)
+        expected = envmap.convert(world, "latlong", "cube", tried_face)
+        assert kept is not None and np.array_equal(kept, expected), tried_face
+        kept[:] = 0.0  # the caller's copy: the kept probe is unchanged
+        assert np.array_equal(probe_detail.measured_probe(world, tried_face), expected)
+    assert probe_detail.measured_probe(world, face + 8) is None
+    other = world.copy()
+    other[10, 10] = 3.0
+    assert probe_detail.measured_probe(other, face) is None
