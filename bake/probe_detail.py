@@ -56,8 +56,8 @@ from .errors import BakeError
 from .probe_maps import ProbeMaps
 
 __all__ = ["TOLERANCE", "FACE_STEP", "MAX_REFERENCE_ROWS", "ggx_kernel_profile",
-           "WorldDetail", "probe_error", "face_ladder", "world_face_steps", "choose_world_face",
-           "measured_probe"]
+           "WorldDetail", "probe_error", "measurable_face", "face_ladder", "world_face_steps",
+           "choose_world_face", "measured_probe"]
 
 #: The largest relative RMS error (luminance) a probe may add to the lobe-filtered world.
 TOLERANCE = 0.02
@@ -190,6 +190,15 @@ def probe_error(world, face, half_width):
     return WorldDetail(world, half_width).error(face)
 
 
+def measurable_face(world_rows) -> int:
+    """The finest cube face (px) :class:`WorldDetail` tells apart for a world of
+    ``world_rows`` rows: the face whose centre texels match its compared maps'
+    rows (:func:`_reference_rows`, at most MAX_REFERENCE_ROWS: 328 px)."""
+    from .resolution import world_detail_face
+
+    return world_detail_face(_reference_rows(world_rows))
+
+
 def face_ladder(start, cap):
     """Faces tried from ``start`` up: each FACE_STEP times the last, multiples of 8,
     ending at ``cap`` (included)."""
@@ -249,13 +258,24 @@ def measured_probe(world, face):
 
 def world_face_steps(world, half_width, lobe_face, cap):
     """:func:`choose_world_face` as a generator: yields (fraction, message) after the
-    reference and after each face tried (a second or two each for a 1024 x 512
-    world on 2 cores; 5-20 s each for a 4096 x 2048 one at GGX 0.1), and returns
-    (face, error, tried). A world measured before in this session for the same
+    reference and after each face tried (0.5-3.5 s each for a 1024 x 512
+    world on 2 cores, 3-15 s in all at GGX 0.1; a 4096 x 2048 one 38 s at GGX 0.1,
+    22 s of it the world's 320 and 328 px cubes: benchmarks/probe_face.py --world),
+    and returns (face, error, tried). A world measured before in this session for the same
     width, lobe face and cap (the same pixels, by digest) returns the same result
     at once, after one step saying so."""
     lobe_face, cap = int(lobe_face), int(cap)
     if cap <= lobe_face:
+        return cap, None, []
+    # Faces finer than the compared maps' texels are beyond what the measure
+    # resolves: its error there only follows how a lamp aliases on each grid
+    # (a 4096 x 2048 night.exr at GGX 0.1: 2.6 / 3.7 / 4.9 / 2.7 / 3.6% at 320 /
+    # 400 / 504 / 632 / 792 px, never 2%), while Cycles credits the larger probe
+    # (docs/HISTORY.md, stop 40: sun4k at GGX 0.1 measured 2.7% from 1024 px faces,
+    # 4.5% from 256). The ladder stops at the finest face the measure resolves,
+    # and the cap stands when no face up to it passes.
+    top = min(cap, measurable_face(np.shape(world)[0]))
+    if top <= lobe_face:
         return cap, None, []
     world_key = _world_key(world)
     key = (*world_key, round(float(half_width), 12), lobe_face, cap, TOLERANCE, FACE_STEP,
@@ -267,7 +287,7 @@ def world_face_steps(world, half_width, lobe_face, cap):
     if known is not None:
         yield 1.0, "the world's detail for this lobe, measured before in this session"
         return known
-    ladder = face_ladder(lobe_face, cap)
+    ladder = face_ladder(lobe_face, top)
     detail = WorldDetail(world, half_width, digest=world_key)
     yield 1.0 / (len(ladder) + 1), "the lobe-filtered world at its own detail"
     tried = []
@@ -290,10 +310,13 @@ def world_face_steps(world, half_width, lobe_face, cap):
 
 def choose_world_face(world, half_width, lobe_face, cap, progress=None):
     """(face, error, tried) for a world-image probe: the first face of
-    :func:`face_ladder` (lobe_face .. cap) whose :meth:`WorldDetail.error` is at
-    most TOLERANCE, else ``cap`` (error None when cap <= lobe_face: nothing to
-    measure). world: (H, 2H, 3) lat-long; half_width: the narrowest lobe's
-    width (rad); ``tried``: [(face, error)] in order. progress(fraction,
+    :func:`face_ladder` (lobe_face .. the smaller of cap and
+    :func:`measurable_face`) whose :meth:`WorldDetail.error` is at most
+    TOLERANCE, else ``cap`` (error None when nothing is measured: cap or the
+    measurable face at most lobe_face; else the last face tried's error, which
+    is below cap when the world is finer than the measure resolves). world:
+    (H, 2H, 3) lat-long; half_width: the narrowest lobe's width (rad);
+    ``tried``: [(face, error)] in order. progress(fraction,
     message) is called after each part."""
     steps = world_face_steps(world, half_width, lobe_face, cap)
     while True:

@@ -19,7 +19,8 @@ own detail, and the face chosen, with the measure's time and the time the
 capture then takes for its probe (converted again, as before stop 67, or
 kept from the measure, as now). ``--baseline`` also measures each world as
 before stop 67 (coarse tiers converted from the probe's pyramid, lat-long
-maps resampled per sub-sample) in the same run, and prints the ratio.
+maps resampled per sub-sample, the ladder up to the cap) in the same run, and prints the ratio;
+``--upsample 2048`` measures each world resampled to 4096 x 2048 first.
 """
 
 import argparse
@@ -51,23 +52,27 @@ def auto_face(spec):
 def _before_stop_67():
     """bake.probe_detail's measure as it was before stop 67, for the baseline: every
     lat-long tier converted from the probe's pyramid (not reduced from the finer
-    tier) and lat-long maps resampled per sub-sample (not separably); nothing
+    tier), lat-long maps resampled per sub-sample (not separably) and the ladder
+    walked up to the cap (not to the finest face the measure resolves); nothing
     remembered from the measure just made."""
     from bake.probe_maps import ProbeMaps
 
     convert_module = importlib.import_module("bake.envmap.convert")
-    saved = probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG
+    saved = (probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG,
+             probe_detail.measurable_face)
     probe_detail._ExactMaps.convert = ProbeMaps.convert
     convert_module.SEPARABLE_LATLONG = False
+    probe_detail.measurable_face = lambda rows: 1 << 30  # the ladder up to the cap
     probe_detail._MEASURED.clear()
     try:
         yield
     finally:
-        probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG = saved
+        (probe_detail._ExactMaps.convert, convert_module.SEPARABLE_LATLONG,
+         probe_detail.measurable_face) = saved
         probe_detail._MEASURED.clear()
 
 
-def world_faces(roughnesses, hdris, baseline=False):
+def world_faces(roughnesses, hdris, baseline=False, upsample=None):
     """Print bake.probe_detail's choice per roughness and HDRI (the capture's Auto);
     with ``baseline`` also the measure before stop 67, timed in the same run."""
     for roughness in roughnesses:
@@ -81,12 +86,23 @@ def world_faces(roughnesses, hdris, baseline=False):
               f"probe error on the world image per face (tolerance "
               f"{probe_detail.TOLERANCE:.0%}) -> face chosen", flush=True)
         for name in hdris:
-            start = time.perf_counter()
             world = exr.read(studio_lights() / f"{name}.exr")[0][..., :3]
+            if upsample:  # e.g. 2048: the bundled world as a 4096 x 2048 image would be
+                world = envmap.convert(world, "latlong", "latlong", upsample)
             cap = resolution.world_detail_face(world.shape[0])
+            start = time.perf_counter()
             face, _, tried = probe_detail.choose_world_face(world, width, lobe_face,
                                                             max(cap, lobe_face))
             measured = time.perf_counter() - start
+            # The capture's probe at the chosen face: converted again (before stop 67)
+            # and taken from the measure (glossy_addon.world.world_cube now).
+            start = time.perf_counter()
+            envmap.convert(world, "latlong", "cube", face)
+            again = time.perf_counter() - start
+            start = time.perf_counter()
+            found = probe_detail.measured_probe(world, face) is not None
+            kept = time.perf_counter() - start
+            kept = f"{kept:.2f} s kept" if found else "not measured: converted"
             before = ""
             if baseline:
                 with _before_stop_67():
@@ -96,17 +112,9 @@ def world_faces(roughnesses, hdris, baseline=False):
                     seconds = time.perf_counter() - start
                 before = (f"; before stop 67 {seconds:.1f} s ({seconds / measured:.1f}x), "
                           + " ".join(f"{f}:{e:.3f}" for f, e in old[2]) + f" -> {old[0]}")
-            # The capture's probe at the chosen face: converted again (before stop 67)
-            # and taken from the measure (glossy_addon.world.world_cube now).
-            start = time.perf_counter()
-            envmap.convert(world, "latlong", "cube", face)
-            again = time.perf_counter() - start
-            start = time.perf_counter()
-            assert probe_detail.measured_probe(world, face) is not None
-            kept = time.perf_counter() - start
             print(f"  {name:10s} " + " ".join(f"{f}:{e:.3f}" for f, e in tried)
                   + f"  -> {face}   (measure {measured:.1f} s; capture's probe "
-                  f"{again:.2f} s converted again, {kept:.2f} s kept{before})", flush=True)
+                  f"{again:.2f} s converted again, {kept}{before})", flush=True)
 
 
 def main():
@@ -119,11 +127,14 @@ def main():
                         help="print the world-detail choice (bake.probe_detail) instead")
     parser.add_argument("--baseline", action="store_true",
                         help="with --world: also time the measure as it was before stop 67")
+    parser.add_argument("--upsample", type=int,
+                        help="with --world: each world resampled to this many rows first")
     args = parser.parse_args()
     faces = [int(f) for f in args.faces.split(",")]
     hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
     if args.world:
-        return world_faces([float(r) for r in args.roughness.split(",")], hdris, args.baseline)
+        return world_faces([float(r) for r in args.roughness.split(",")], hdris, args.baseline,
+                           args.upsample)
     normals, views, mask = reference.sphere_buffers(args.size)
     normals, views = normals[mask], views[mask]
     for roughness in (float(r) for r in args.roughness.split(",")):

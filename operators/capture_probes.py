@@ -111,7 +111,17 @@ def _world_detail_steps(context, face, reason, detail, cache):
     if isinstance(cache[key], str):
         return face, f"{reason}; the world image's detail was not measured ({cache[key]})"
     chosen, error, tried = cache[key]
+    if not tried:  # finer than the lobe's face everywhere the measure resolves
+        return chosen, (f"{chosen} px faces: the most the world image's detail or Max Probe "
+                        f"Resolution allows (the measure resolves up to "
+                        f"{probe_detail.measurable_face(image.size[1])} px, below the "
+                        f"lobe's {face} px)")
     first = tried[0][1]
+    if chosen != tried[-1][0]:  # no face passed up to the finest the measure resolves
+        return chosen, (f"{chosen} px faces: the most the world image's detail or Max Probe "
+                        f"Resolution allows (the probe adds {error:.1%} at {tried[-1][0]} px, "
+                        f"the finest face the measure resolves; {first:.1%} at the lobe's "
+                        f"{face} px)")
     if chosen == face:
         return face, f"{reason}; the world image's detail adds {first:.1%} there"
     if error <= probe_detail.TOLERANCE:

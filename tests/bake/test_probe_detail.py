@@ -130,3 +130,24 @@ def test_the_probe_each_face_was_measured_on_is_kept_for_the_capture():
     other = world.copy()
     other[10, 10] = 3.0
     assert probe_detail.measured_probe(other, face) is None
+
+
+def test_the_ladder_stops_at_the_finest_face_the_measure_resolves():
+    """A world of 1024 rows is compared at MAX_REFERENCE_ROWS (512) rows, whose texels
+    match 328 px faces: finer faces only change how a lamp aliases on the two grids
+    (the error bounces, e.g. 2.6-4.9% from 320 to 792 px on a 4096 x 2048 night.exr
+    at GGX 0.1). So the ladder stops at 328 px, and when no face up to there passes,
+    the cap (the world's own detail, 656 px) stands, as it did when every rung up to
+    it failed (a 0.3 degree sun in a 4096 x 2048 world measured 2.7% from Cycles at
+    its 1024 px cap, 4.5% at 256 px: docs/HISTORY.md, stop 40). Where the lobe's
+    own face is past 328 px, nothing is measured. Measured here: 11.1% / 13.6% at
+    304 / 328 px (a one-texel lamp of 5e4 in a smooth sky)."""
+    world = _world(1024, 5e4)
+    cap = resolution.world_detail_face(1024)
+    assert cap == 656 and probe_detail.measurable_face(1024) == 328
+    assert probe_detail.measurable_face(512) == resolution.world_detail_face(512) == 328
+    face, error, tried = probe_detail.choose_world_face(world, 0.0067, 304, cap)
+    assert [f for f, _ in tried] == [304, 328]
+    assert all(e > probe_detail.TOLERANCE for _, e in tried)
+    assert face == cap and error == tried[-1][1]
+    assert probe_detail.choose_world_face(world, 0.0067, 336, cap) == (cap, None, [])
