@@ -109,7 +109,11 @@ def resample(sample, target: Layout, shape, k: int, channels: int, progress=None
     def work(bounds):
         r0, r1 = bounds
         y = (np.arange(r0, r1)[:, None] + offsets[None, :])[:, :, None, None]
-        xs, y = np.broadcast_arrays(x, y)
+        # A cube's face and column coordinate follow x alone: kept apart from y
+        # (Cube.directions gathers its face table per column then).
+        xs = x if target.name == "cube" else None
+        if xs is None:
+            xs, y = np.broadcast_arrays(x, y)
         directions = target.directions(xs, y, shape)
         weights = target.jacobian(xs, y, shape)
         weights = np.broadcast_to(weights, directions.shape[:-1]).astype(np.float32)

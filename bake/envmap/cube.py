@@ -43,8 +43,16 @@ _FACE_TABLE = np.array(
 
 
 def _face_to_gl(face, a, b):
-    """GL-frame (unnormalised) direction of face coordinates a, b in [-1, 1]."""
-    face, a, b = np.broadcast_arrays(np.asarray(face, dtype=np.intp), a, b)
+    """GL-frame (unnormalised) direction of face coordinates a, b in [-1, 1].
+
+    face and a may be column arrays and b a row array (as
+    bake.envmap.convert.resample passes a cube target's coordinates): the face
+    table is then gathered per column, not per sub-sample, and the sums
+    broadcast (the same operations on every element)."""
+    face = np.asarray(face, dtype=np.intp)
+    a, b = np.asarray(a), np.asarray(b)
+    if face.shape != a.shape:
+        face, a = np.broadcast_arrays(face, a)
     table = _FACE_TABLE[face]
     return table[..., 0] + table[..., 1] * a[..., None] + table[..., 2] * b[..., None]
 

@@ -346,3 +346,18 @@ def test_latlong_to_latlong_is_the_per_sub_sample_resampling_computed_separably(
     generic = convert_module.resample(sample, target, shape, k, channels)
     assert separable.shape == generic.shape == (rows, 2 * rows, 3)
     assert np.abs(separable - generic).max() <= 2e-6 * np.abs(generic).max()
+
+
+def test_cube_directions_from_column_and_row_coordinates_are_the_broadcast_ones():
+    """convert.resample passes a cube target its sub-samples' x as columns and y as
+    rows (the face table gathered per column, not per sub-sample): the directions
+    and Jacobian weights must be those of the broadcast grid, to the bit."""
+    cube = get_layout("cube")
+    shape = cube.shape(24)
+    offsets = (np.arange(3) + 0.5) / 3
+    x = (np.arange(shape[1])[:, None] + offsets[None, :])[None, None, :, :]
+    y = (np.arange(5, 11)[:, None] + offsets[None, :])[:, :, None, None]
+    xs, ys = np.broadcast_arrays(x, y)
+    assert np.array_equal(cube.directions(x, y, shape), cube.directions(xs, ys, shape))
+    weights = np.broadcast_to(cube.jacobian(x, y, shape), xs.shape)
+    assert np.array_equal(weights, cube.jacobian(xs, ys, shape))
