@@ -31,6 +31,7 @@ import json
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,8 @@ from .probe_maps import latlong_detail_rows, probe_maps, resample_rows
 from .progress import run_steps
 from .zonal import suggested_supersample, zonal_convolve
 
-__all__ = ["MODES", "PRESETS", "prefilter", "load", "BakedMap", "split_sum_kernel", "dfg_table"]
+__all__ = ["MODES", "PRESETS", "prefilter", "load", "BakedMap", "Companion", "split_sum_kernel",
+           "dfg_table"]
 
 MODES = ("3d", "2d", "split-sum", "phong", "irradiance", "sh")
 #: Default spherical-harmonic order of the ``sh`` mode.
@@ -315,6 +317,9 @@ class BakedMap:
         self.layers = layers
         self.meta = meta
         self._samplers = {}
+        #: {(k, j): filtered unit lobe} and the lobes.Fit of a 3d bake with
+        #: keep_unit_layers (what a Companion holds), else None.
+        self.unit_layers = self.unit_fit = None
 
     # --- lookups -----------------------------------------------------------
     def _sampler(self, name, layout="latlong"):
@@ -489,6 +494,57 @@ def _resolve_size(size, max_size, half_widths, image, probe_layout, layers=1):
     return size, f"{size} rows: set by hand"
 
 
+@dataclass
+class Companion:
+    """The high end of a two-map split, whose filtered lobes the low end's 3D map may take.
+
+    A split material (bake.colour_response: a metal's base colour, a specular
+    tint) shades (1 - c) M_low + c M_high per pixel, c in [0, 1] from its
+    texture. Both maps hold the same slices of lobes with the same normal
+    distribution; near normal incidence the low map's weights are small (a
+    metal at base colour 0 reflects Schlick's grazing term alone: 0-4% of the
+    high map's at GGX 0.1-0.5), so its own lobe shapes matter little there.
+    The low map takes the high map's filtered unit lobe for slice (k, j) where
+
+        w_low L1(p_low, p_high) <= TOLERANCE ((1 - share) w_low + share w_high),
+
+    w the slice's weight (mean over RGB), L1 the relative L1 error of the lobe
+    shape (bake.slice_basis.energy_error), share the texture's mean value of
+    the split input: the error so made at any pixel is at most TOLERANCE of
+    what the slice gives at the mean colour times the brightest radiance the
+    lobe covers (slice_basis's bound, taken against the material's mean
+    brightness instead of the low map's own). With share 0 this is slice_basis's
+    own bound, L1 <= TOLERANCE.
+
+    fit: the high map's lobes.Fit; unit_layers: {(k, j): (size, 2 size, 3)
+    float32} its filtered unit lobes (BakedMap.unit_layers of a bake with
+    ``keep_unit_layers``); size: its rows; share in [0, 1].
+    """
+
+    fit: "lobes.Fit"
+    unit_layers: dict
+    size: int
+    share: float
+
+    def reusable(self, fit, jobs) -> list:
+        """The jobs (k, j) of ``fit`` (the low map's) that may take the high map's lobe."""
+        if len(fit.slices) != len(self.fit.slices) or \
+                not np.allclose(fit.mus, self.fit.mus, rtol=0.0, atol=1e-9):
+            return []
+        share = float(np.clip(self.share, 0.0, 1.0))
+        out = []
+        for k, j in jobs:
+            if (k, j) not in self.unit_layers or j >= len(self.fit.slices[k].lobes):
+                continue
+            own, other = fit.slices[k].lobes[j], self.fit.slices[k].lobes[j]
+            low = float(np.mean(own.weight))
+            high = float(np.mean(other.weight))
+            error = slice_basis.energy_error(other.profile, own.profile, lobes.GAMMA)
+            if low * error <= slice_basis.TOLERANCE * ((1.0 - share) * low + share * high):
+                out.append((k, j))
+        return out
+
+
 def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
               layout=None, levels=None, preset="khronos", method="direct", dfg=True,
               max_size=None, order=SH_ORDER, progress=None):
@@ -514,7 +570,8 @@ def prefilter(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_coun
 
 def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobes_count=1,
                     layout=None, levels=None, preset="khronos", method="direct", dfg=True,
-                    max_size=None, threads=None, order=SH_ORDER):
+                    max_size=None, threads=None, order=SH_ORDER, companion=None,
+                    keep_unit_layers=False):
     """:func:`prefilter` as a generator: yields (fraction, message) after each step (the
     fit, each pair of slices filtered on two threads) and returns the BakedMap.
 
@@ -522,6 +579,13 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
     caller that runs one step per UI timer tick stays responsive and can stop
     between steps (nothing has been written until the caller writes the map).
     Bad arguments raise BakeError before the first step.
+
+    3d only: ``keep_unit_layers`` keeps each slice's filtered unit lobe in the
+    returned map's ``unit_layers`` ({(k, j): layer}); ``companion``
+    (:class:`Companion`) lets the slices its bound allows take those of another
+    map (the high end of a split): this map then has that map's rows where Auto
+    would choose fewer, and a companion with fewer rows is resampled up to this
+    map's; ``meta["reused_slices"]`` lists the slices taken.
     """
     if mode not in MODES:
         raise BakeError(f"unknown mode {mode!r} (use one of: {', '.join(MODES)})")
@@ -558,8 +622,13 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
     if mode == "2d":
         jobs = [(len(fit.slices) - 1, 0)]  # the shared shape (that of the last slice)
     layer_count = len(fit.slices) * fit.lobes if mode == "3d" else 1
+    auto = size in (None, "auto")
     size, reason = _resolve_size(size, max_size, [halves[job] for job in jobs], image,
                                  probe_layout, layer_count)
+    reused = companion.reusable(fit, jobs) if companion is not None and mode == "3d" else []
+    if reused and auto and companion.size > size:
+        size, reason = companion.size, (f"{companion.size} rows: the size of the map whose "
+                                        f"lobes {len(reused)} slices take ({reason})")
     check_memory(size, layer_count)
     meta = _base_meta(mode, model, probe_layout, image.shape, size)
     meta.update({"slices": len(fit.slices), "lobes": fit.lobes, "mu": fit.mus.tolist(),
@@ -571,6 +640,8 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
                                  for k, j in jobs},
                  "precision": "float32"})
 
+    meta["reused_slices"] = [f"{k}.{j}" for k, j in reused]
+    all_jobs, jobs = jobs, [job for job in jobs if job not in reused]
     # Filter only the slices the others are mixes of (bake.slice_basis).
     if mode == "3d" and len(jobs) > 2:
         profiles = [fit.slices[k].lobes[j].profile for k, j in jobs]
@@ -579,7 +650,7 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
         chosen, mixes, basis_errors = list(range(len(jobs))), np.eye(len(jobs)), np.zeros(
             len(jobs))
     meta["filtered_slices"] = [f"{jobs[i][0]}.{jobs[i][1]}" for i in chosen]
-    meta["mix_error"] = float(basis_errors.max())
+    meta["mix_error"] = float(basis_errors.max()) if len(basis_errors) else 0.0
 
     def job(index):
         k, j = jobs[index]
@@ -607,19 +678,26 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
             done = start + len(batch)
             yield 0.15 + 0.8 * done / len(chosen), f"filtered slice {done}/{len(chosen)} " \
                                                    f"({size} rows)"
-    layers = {}
-    stack = np.stack([filtered[i] for i in chosen])  # (r, H, W, 3)
+    layers, units = {}, {}
+    stack = np.stack([filtered[i] for i in chosen]) if chosen else None  # (r, H, W, 3)
+    # A companion with fewer rows (Auto chose them for its own lobes, the ones taken
+    # here) is resampled up to this map's rows (bilinear in latitude, probe_maps).
+    units.update({(k, j): companion.unit_layers[(k, j)] if companion.size == size
+                  else resample_rows(companion.unit_layers[(k, j)], size) for k, j in reused})
     for row, (k, j) in enumerate(jobs):
         mix = mixes[row]
-        layer = np.tensordot(mix.astype(np.float32), stack, axes=1) if row not in filtered \
-            else filtered[row]
+        units[(k, j)] = np.tensordot(mix.astype(np.float32), stack, axes=1) \
+            if row not in filtered else filtered[row]
+    for k, j in all_jobs:
+        layer = units[(k, j)]
         lobe = fit.slices[k].lobes[j]
         if mode == "2d":
             layers[""] = layer.copy()  # the filtered map may be shared (ProbeMaps.filtered)
         else:
             weight = np.asarray(lobe.weight, dtype=np.float32)
             layers[f"slice.{k}" if fit.lobes == 1 else f"lobe{j}.slice.{k}"] = layer * weight
-    yield 1.0, f"combined {len(jobs)} slices from {len(chosen)} filtered"
+    yield 1.0, f"combined {len(all_jobs)} slices from {len(chosen)} filtered" + (
+        f" and {len(reused)} taken from the split's other map" if reused else "")
     if mode == "2d":
         meta["k"] = [s.lobes[0].weight for s in fit.slices]
         return BakedMap(mode, layers, meta)
@@ -628,7 +706,10 @@ def prefilter_steps(image, model_or_fit, mode="3d", size=128, *, slices=16, lobe
         for j in range(len(s.lobes), fit.lobes):
             layers[f"lobe{j}.slice.{k}"] = np.zeros((size, 2 * size, 3), np.float32)
     meta["offsets"] = [offs + [0.0] * (fit.lobes - len(offs)) for offs in meta["offsets"]]
-    return BakedMap(mode, layers, meta)
+    baked = BakedMap(mode, layers, meta)
+    if keep_unit_layers:
+        baked.unit_layers, baked.unit_fit = units, fit
+    return baked
 
 
 def _phong(maps, model, image, probe_layout, size, max_size, slices):

@@ -22,7 +22,7 @@ signed basis functions), so each is filtered like any lobe.
 
 import numpy as np
 
-__all__ = ["choose", "TOLERANCE"]
+__all__ = ["choose", "energy_error", "TOLERANCE"]
 
 #: Largest relative L1 error (fraction of the lobe's energy) of a combined lobe.
 TOLERANCE = 0.005
@@ -34,6 +34,17 @@ def _energy_weights(gamma):
     weights[:-1] += 0.5 * widths
     weights[1:] += 0.5 * widths
     return 2.0 * np.pi * np.sin(gamma) * weights
+
+
+def energy_error(approx, profile, gamma) -> float:
+    """The relative L1 error of lobe ``approx`` standing for ``profile`` (both (G,) at
+    angles ``gamma``): 2 pi int |approx - profile| sin g dg over 2 pi int profile sin g
+    dg, the measure :func:`choose` bounds (profile's negative parts clipped to 0)."""
+    area = _energy_weights(np.asarray(gamma, dtype=np.float64))
+    profile = np.clip(np.asarray(profile, dtype=np.float64), 0.0, None)
+    approx = np.clip(np.asarray(approx, dtype=np.float64), 0.0, None)
+    total = float(profile @ area)
+    return float(np.abs(approx - profile) @ area) / total if total > 0 else 0.0
 
 
 def choose(profiles, gamma, tolerance=TOLERANCE):

@@ -109,6 +109,34 @@ def split_plan(derived) -> tuple:
     return None, None
 
 
+def split_share(derived) -> float:
+    """The split input's mean value (its smallest channel, in [0, 1]) of a From
+    Material bake, what bake.prefilter.Companion weighs the low map's error
+    against; 0 (the strictest) when the plan records no mean."""
+    _, plan = split_plan(derived)
+    mean = (plan or {}).get("mean")
+    if mean is None:
+        return 0.0
+    return float(min(max(min(float(v) for v in mean), 0.0), 1.0))
+
+
+def split_order(variants) -> list:
+    """Indices of ``variants`` ((roughness, key, ...) tuples, :func:`map_variants`' order)
+    in the order a bake takes them: each knot's :data:`HIGH` map before its
+    :data:`LOW` one (whose 3D map may take the high map's lobes,
+    bake.prefilter.Companion), the rest as listed."""
+    where = {(v[0], v[1]): i for i, v in enumerate(variants)}
+    order = []
+    for i, (roughness, key, *_) in enumerate(variants):
+        if i in order:
+            continue
+        high = where.get((roughness, HIGH))
+        if key == LOW and high is not None and high not in order:
+            order.append(high)
+        order.append(i)
+    return order
+
+
 def _split_knots(parts, colour=True) -> list:
     """[(roughness or None, dielectric spec or None, glossy model to split or keep,
     ColourResponse or None, coat spec or None), ...] per roughness knot (one None

@@ -41,12 +41,15 @@ from ..glossy_addon.spatial import (
     DIELECTRIC,
     GLOSSY,
     HIGH,
+    LOW,
     METAL,
     colour_responses,
     input_socket,
     lookup_sockets,
     map_variants,
+    split_order,
     split_plan,
+    split_share,
 )
 from ..glossy_addon.world import (
     WorldNotReadable,
@@ -474,20 +477,35 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
             jobs = [(r, c, knot_path, variants[(r, c)]) for r, c, knot_path in knot_paths] \
                 or [(None, None, path, spec)]
             start = 0.3 if runtime is not None else 0.1
-            for index, (roughness, colour, job_path, job_spec) in enumerate(jobs):
+            share = split_share(material_parts(material).derived)
+            bakes, highs = {}, {}
+            for step, index in enumerate(split_order(jobs)):
+                roughness, colour, _, job_spec = jobs[index]
+                # A split's low map takes the high map's filtered lobes where the
+                # material's mean colour hides the difference (prefilter.Companion).
+                companion = highs.pop(roughness, None) if colour == LOW else None
                 baked = yield from scaled_steps(background_steps(prefilter.prefilter_steps(
                     glossy_probe, job_spec, "3d" if method == "hybrid" else method,
                     size, slices=settings.slices,
                     lobes_count=settings.lobes if method in ("3d", "hybrid") else 1,
-                    layout=layout, max_size=max_size)),
-                    start + (0.85 - start) * index / len(jobs),
-                    start + (0.85 - start) * (index + 1) / len(jobs))
+                    layout=layout, max_size=max_size, companion=companion,
+                    keep_unit_layers=colour == HIGH and (roughness, LOW) in
+                    {(r, c) for r, c, _, _ in jobs})),
+                    start + (0.85 - start) * step / len(jobs),
+                    start + (0.85 - start) * (step + 1) / len(jobs))
+                if baked.unit_layers is not None:
+                    highs[roughness] = prefilter.Companion(
+                        baked.unit_fit, baked.unit_layers, baked.meta["size"], share)
+                    baked.unit_layers = baked.unit_fit = None
+                bakes[index] = (baked.meta, atlas.pack(baked))  # the layers let go
+            for index, (roughness, colour, job_path, _) in enumerate(jobs):
+                baked_meta, packed = bakes.pop(index)
                 if roughness is not None or colour is not None:
-                    knots.append((roughness, job_path, atlas.pack(baked), colour))
-                    sizes.append(baked.meta["size"])
+                    knots.append((roughness, job_path, packed, colour))
+                    sizes.append(baked_meta["size"])
                 else:
-                    image, atlas_meta = atlas.pack(baked)
-                    rows, reason = baked.meta["size"], baked.meta["size_reason"]
+                    image, atlas_meta = packed
+                    rows, reason = baked_meta["size"], baked_meta["size_reason"]
             if knots:
                 mean = float(brdf.parse(spec).params.get("roughness", 0.0))
                 # The map recorded as the bake: a plain, white or metal one nearest the
@@ -513,7 +531,7 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                                 + f" for the per-pixel {plan['input']}")
                 reason = (f"{len(knots)} maps at {' and '.join(what)}, "
                           f"{min(sizes)}-{max(sizes)} rows "
-                          f"({baked.meta['size_reason'].split(':')[-1].strip()})")
+                          f"({baked_meta['size_reason'].split(':')[-1].strip()})")
             if knot_lit and lights:
                 runtime = knot_lights.pack(lights, [(r, c, job_spec)
                                                     for r, c, _, job_spec in jobs])

@@ -144,3 +144,23 @@ def test_a_coat_tint_scales_what_lies_below_the_coat_alone(below):
         model.f(wi, wo) - coat)
     assert np.abs(got - truth).max() / truth.max() < 1e-8
     assert colour_response.coat_alone(brdf.parse("principled:roughness=0.3")) is None
+
+
+def test_a_bake_takes_each_knot_s_high_map_before_its_low_one():
+    """glossy_addon.spatial.split_order: map_variants lists a knot's maps as Metallic 0,
+    colour 0, colour 1, coat; the bake filters colour 1 first so colour 0 may take its
+    lobes (bake.prefilter.Companion), everything else in the listed order.
+    split_share: the split input's mean, its smallest channel (0 without a mean)."""
+    from types import SimpleNamespace
+
+    from glossy_addon.spatial import HIGH, LOW, split_order, split_share
+
+    variants = [(0.2, "dielectric"), (0.2, LOW), (0.2, HIGH), (0.2, "coat"),
+                (0.4, "dielectric"), (0.4, LOW), (0.4, HIGH), (None, "metal")]
+    assert split_order(variants) == [0, 2, 1, 3, 4, 6, 5, 7]
+    assert split_order([(None, HIGH), (None, LOW)]) == [0, 1]
+    assert split_order([(None, LOW)]) == [0]
+    colour = {"split": True, "mean": [0.5, 0.375, 0.35]}
+    assert split_share(SimpleNamespace(spatial={"colour": colour})) == 0.35
+    assert split_share(SimpleNamespace(spatial={"tint": {"split": True}})) == 0.0
+    assert split_share(None) == 0.0

@@ -223,3 +223,57 @@ def test_nan_probe_is_refused(probe):
     bad[3, 4, 1] = np.nan
     with pytest.raises(BakeError, match="NaN"):
         prefilter.prefilter(bad, "ggx:roughness=0.3", "3d", 16)
+
+
+@pytest.mark.parametrize("share", [0.0, 0.5])
+def test_a_split_s_low_map_takes_the_high_map_s_lobes_within_its_bound(probe, share):
+    """A metal split at base colours 0 and 1 (bake.colour_response): the low map takes the
+    high map's filtered unit lobe where prefilter.Companion's bound allows (the slice's
+    weight times its shape error at most slice_basis.TOLERANCE of the slice's weight at
+    the mean colour ``share``). Each such layer differs from the low map filtered on
+    its own by at most that bound times the brightest radiance (the filtered
+    difference of two unit lobes is at most their L1 distance times the largest
+    value; 1.25x for the two lobes' own discretisation on a 32 px probe); the slices
+    left to filter stay within slice_basis's own bound of theirs (twice: each map's
+    basis mixes). With share 0 the bound is slice_basis's alone."""
+    from bake import slice_basis
+    from bake.probe_maps import resample_rows
+
+    low_spec = "principled:base_color=0,metallic=1,roughness=0.3"
+    high = prefilter.run_steps(prefilter.prefilter_steps(
+        probe, "principled:base_color=1,metallic=1,roughness=0.3", "3d", 32,
+        layout="cube", keep_unit_layers=True))
+    alone = prefilter.prefilter(probe, low_spec, "3d", 32, layout="cube")
+    companion = prefilter.Companion(high.unit_fit, high.unit_layers, 32, share)
+    low = prefilter.run_steps(prefilter.prefilter_steps(probe, low_spec, "3d", 32,
+                                                        layout="cube", companion=companion))
+    reused = low.meta["reused_slices"]
+    fit = lobes.fit(brdf.parse(low_spec), slices=16, lobes=1, mode="3d")
+    brightest = float(np.max(probe))
+    tolerance = slice_basis.TOLERANCE
+    for k in range(16):
+        w_low = float(np.mean(fit.slices[k].lobes[0].weight))
+        w_high = float(np.mean(high.unit_fit.slices[k].lobes[0].weight))
+        error = slice_basis.energy_error(high.unit_fit.slices[k].lobes[0].profile,
+                                         fit.slices[k].lobes[0].profile, lobes.GAMMA)
+        allowed = w_low * error <= tolerance * ((1 - share) * w_low + share * w_high)
+        assert (f"{k}.0" in reused) == allowed, k
+        difference = np.abs(low.layers[f"slice.{k}"] - alone.layers[f"slice.{k}"]).max()
+        if allowed:  # the high map's unit lobe times the low slice's own weight
+            weight = np.asarray(fit.slices[k].lobes[0].weight, dtype=np.float32)
+            assert np.array_equal(low.layers[f"slice.{k}"], high.unit_layers[(k, 0)] * weight)
+            # Measured on forest.exr: 0.01-0.07 of the bound.
+            assert difference <= 1.25 * w_low * error * brightest + 1e-6, k
+        else:
+            assert difference <= 2.5 * tolerance * w_low * brightest + 1e-6, k
+    expected = {0.0: (0, 4), 0.5: (5, 14)}[share]
+    assert expected[0] <= len(reused) <= expected[1], reused
+    # A map of another size takes the companion's lobes resampled to its rows.
+    other = prefilter.run_steps(prefilter.prefilter_steps(
+        probe, low_spec, "3d", 24, layout="cube", companion=companion))
+    assert other.meta["reused_slices"] == reused
+    for name in reused:
+        k = int(name.split(".")[0])
+        weight = np.asarray(fit.slices[k].lobes[0].weight, dtype=np.float32)
+        assert np.array_equal(other.layers[f"slice.{k}"],
+                              resample_rows(high.unit_layers[(k, 0)], 24) * weight)
