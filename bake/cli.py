@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__, exr, outputs
+from .blas_threads import limited as limited_blas
 from .envmap import LAYOUTS, convert, get_layout, mip
 from .envmap.convert import supersampling
 from .errors import BakeError
@@ -834,7 +835,8 @@ def main(argv=None) -> int:
     parser = _build_parser()
     args = parser.parse_args(argv)
     try:
-        args.run(args)
+        with limited_blas():  # the commands run their own threads (bake.blas_threads)
+            args.run(args)
     except BakeError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

@@ -12,8 +12,10 @@ import threading
 import time
 from collections.abc import Callable
 
+from .blas_threads import limited as limited_blas
+
 __all__ = ["Progress", "LinePrinter", "report", "scaled", "scaled_steps", "run_steps",
-           "prefixed_steps", "background_steps"]
+           "prefixed_steps", "background_steps", "blas_limited_steps"]
 
 Progress = Callable[[float, str], None]
 
@@ -112,12 +114,15 @@ def background_steps(steps, poll: float = 0.1):
 
     def work():
         try:
-            while not stop.is_set():
-                try:
-                    events.put(("step", next(steps)))
-                except StopIteration as done:
-                    events.put(("done", done.value))
-                    return
+            # The work's own threads use every core: BLAS's spinning ones would
+            # only contend with them (bake.blas_threads).
+            with limited_blas():
+                while not stop.is_set():
+                    try:
+                        events.put(("step", next(steps)))
+                    except StopIteration as done:
+                        events.put(("done", done.value))
+                        return
         except BaseException as error:  # re-raised on the caller's thread
             events.put(("error", error))
         finally:
@@ -142,3 +147,20 @@ def background_steps(steps, poll: float = 0.1):
             yield value
     finally:
         stop.set()
+
+
+def blas_limited_steps(steps):
+    """Re-yield a step generator's steps, running each part with NumPy's OpenBLAS held
+    to one thread (bake.blas_threads) and giving the count back between parts, so
+    that a modal operator changes nothing for the rest of Blender between its timer
+    ticks. Returns the generator's value; closing this one closes it."""
+    try:
+        while True:
+            with limited_blas():
+                try:
+                    value = next(steps)
+                except StopIteration as done:
+                    return done.value
+            yield value
+    finally:
+        steps.close()

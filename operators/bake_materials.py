@@ -23,7 +23,14 @@ from ..bake import (
     world_lights,
 )
 from ..bake.errors import BakeError
-from ..bake.progress import background_steps, prefixed_steps, run_steps, scaled, scaled_steps
+from ..bake.progress import (
+    background_steps,
+    blas_limited_steps,
+    prefixed_steps,
+    run_steps,
+    scaled,
+    scaled_steps,
+)
 from ..glossy_addon import ownership
 from ..glossy_addon.bookkeeping import bake_inputs_hash, bake_status
 from ..glossy_addon.checks import check_settings
@@ -556,9 +563,10 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
         with the object's name when the bake spans several objects."""
         obj_name, name, path, diffuse_path, lamp_path, runtime_path, knot_paths = job
         probe, meta, probe_path, world, world_note = self._probe_of(obj_name)
-        steps = self._bake_steps(bpy.data.materials[name], path, diffuse_path, lamp_path,
-                                 probe, meta, probe_path, obj_name, runtime_path, knot_paths,
-                                 world, world_note)
+        # The parts on Blender's thread (packing, writing) hold BLAS to one thread too.
+        steps = blas_limited_steps(self._bake_steps(
+            bpy.data.materials[name], path, diffuse_path, lamp_path, probe, meta, probe_path,
+            obj_name, runtime_path, knot_paths, world, world_note))
         return steps, (f"{obj_name}: " if len(self._probes) > 1 else "")
 
     def execute(self, context):
