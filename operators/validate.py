@@ -25,7 +25,7 @@ import numpy as np
 from ..bake import brdf, exr, lamp_reference, metrics, reference, validation
 from ..bake.brdf import fresnel
 from ..bake.errors import BakeError
-from ..bake.progress import prefixed_steps, run_steps
+from ..bake.progress import blas_limited_steps, prefixed_steps, run_steps
 from ..glossy_addon import lamps as glossy_lamps
 from ..glossy_addon import validation as glue
 from ..glossy_addon.capture import lookup_truths
@@ -265,8 +265,8 @@ class GLOSSY_OT_validate(TimerSteps, bpy.types.Operator):
                        "maps", "roughness": "the roughness textures",
                        "emission": "what the materials emit",
                        "metallic": "the metallic textures"}[value]
-        elif kind == "reference":
-            return self._reference_steps(value)
+        elif kind == "reference":  # NumPy threads of its own: BLAS held to one
+            return blas_limited_steps(self._reference_steps(value))
         else:
             return self._write_report(context)
         self._images[name] = glue.render_to(scene, self._work / f"{name}.exr")
