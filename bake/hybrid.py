@@ -20,8 +20,11 @@ methods where the bake uses them (measured at 64 px for all, GGX 0.1 had w
 near 0 from n.v 0 to 0.35: there the coarse probe limited regular sampling;
 at the lobe rule's 200 px w was 0.6-0.9 below n.v 0.7, and at the faces the
 HDRIs' lamps need it is 0.7-1.0):
-each bin's w is the least-squares blend of the two estimates against the
-brute-force integral (the sum over the probe's texels), both taken without
+the knots of w, its values w_k at the bins' centres (the piecewise-linear
+w(mu) through them, held flat past the end centres, is what the nodes
+evaluate: :func:`blend_curve`), are the least-squares blend of the two
+estimates against the brute-force integral (the sum over the probe's texels),
+both taken without
 the probe lights' exact term, which the nodes add outside the blend (its own
 error, against the sum over the lights' texels, is the same for every w, and
 at grazing views under night.exr's lamps it was large enough to decide the
@@ -29,12 +32,20 @@ fit by chance), each pixel the mean
 of 2 x 2 sub-pixels (``--supersample 2``: the footprint EEVEE's and Cycles'
 anti-aliasing integrate; pixel centres alone alias highlights narrower than
 a pixel, which put night.exr at 21% for every method at GGX 0.1 and moved
-GGX 0.1's weights by up to 0.36),
+GGX 0.1's weights by up to 0.36), fitted as that very curve:
 
-    w = sum (m - t)(m - r) / sum (m - r)^2   (clamped to [0, 1]),
+    minimise  sum_p s_p ((1 - w(mu_p)) m_p + w(mu_p) r_p - t_p)^2   over 0 <= w_k <= 1
 
-over the bin's pixels of every HDRI, each HDRI's squares divided by its
-mean squared truth in the bin (relative errors, pooled). Unlike an
+(:func:`curve_normal_equations`, :func:`bounded_least_squares`) over the
+pixels of every HDRI, s_p dividing each pixel's square by its HDRI's mean
+squared truth in the pixel's bin (relative errors, pooled). Until stop 70
+each bin had a constant of its own, w = sum (m - t)(m - r) / sum (m - r)^2
+over the bin's pixels (clamped), which the curve then interpolated between
+the centres: at GGX 0.1 its fall from 0.97 (n.v 0.35-0.5) to 0.42 (0.5-0.7)
+let the map into the upper half of the 0.35-0.5 bin, where the map is the
+worse estimate (``benchmarks/hybrid.py --fit bins`` fits as before). Leave
+one out in NumPy the two fits are level (pooled 2.656 / 2.649% at 19
+samples, 2.431 / 2.436% at 61, 2.271 / 2.289% at 127, curve / bins). Unlike an
 inverse-variance weight it accounts for the two errors being correlated
 (both limited by the probe, e.g. roughness 0.1 under a tiny sun). The table
 also records each method's relative RMS error per bin. The regular
@@ -52,9 +63,12 @@ sub-pixels, the weights fitted on the residual probe, the lights' term of
 stop 43): its runtime estimate carries the importance weights' extra
 spread, so the map keeps the blend near normal incidence (w = 0 above n.v
 0.7 at every roughness with 19 samples, 0-0.26 at n.v 0.5-0.7 for roughness
-0.1-0.45, where GGX's table gives 0.42-0.84). Leave one out it puts the Hybrid
+0.1-0.45, where GGX's table gave 0.42-0.84 before stop 70's curve fit). Leave one out it puts the Hybrid
 below both methods in 37 / 38 / 23 of 40 cases at 19 / 61 / 127 samples
-(the table before: 35 of 40 at 19), above both in none.
+(the table before: 35 of 40 at 19), above both in none. Its knots are
+still the per-bin constants (``--fit bins``, before stop 70; its meta has
+no "fit"): GGX's curve fit changed GGX's EEVEE figures by at most 0.02
+point, so Beckmann's measurement (about 20 minutes) was not redone.
 """
 
 import json
@@ -65,7 +79,8 @@ import numpy as np
 from .errors import BakeError
 
 __all__ = ["ErrorTable", "load_table", "blend_weight", "weight_curve", "blend_curve",
-           "shade", "TABLE_PATH", "table_path"]
+           "curve_normal_equations", "bounded_least_squares", "shade", "TABLE_PATH",
+           "table_path"]
 
 TABLE_PATH = Path(__file__).with_name("hybrid_errors.json")
 #: Lobe kinds (bake.sampling_runtime.KINDS) with a table of their own.
@@ -184,6 +199,63 @@ def blend_curve(mu, centres, weights):
         t = np.clip((mu - centres[i]) / (centres[i + 1] - centres[i]), 0.0, 1.0)
         value = value + (float(weights[i + 1]) - float(weights[i])) * t
     return value
+
+
+
+def curve_normal_equations(mu, baked, regular, truth, scale, centres):
+    """The normal equations (G (K, K), c (K,)) of the blend's squared error as a
+    function of the knot values w (K,) of :func:`blend_curve` at ``centres`` (K,):
+
+        E(w) = sum_p s_p ((1 - w(mu_p)) m_p + w(mu_p) r_p - t_p)^2
+             = w^T G w - 2 c^T w + const,
+
+    with w(mu) = sum_k w_k phi_k(mu), phi_k the curve of knot values e_k (hat
+    functions at the centres, the end ones held flat past the end centres),
+    so that the fit is of the very curve the nodes evaluate, not of constants
+    per bin. mu, baked (m), regular (r), truth (t), scale (s, each pixel's
+    weight, e.g. 1 / its bin's mean squared truth): (N,) each. Normal
+    equations of several sets of pixels add (pooled fits)."""
+    mu = np.asarray(mu, dtype=np.float64)
+    difference = np.asarray(regular, dtype=np.float64) - np.asarray(baked, dtype=np.float64)
+    target = np.asarray(truth, dtype=np.float64) - np.asarray(baked, dtype=np.float64)
+    scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), mu.shape)
+    basis = np.stack([blend_curve(mu, centres, np.eye(len(centres))[k])
+                      for k in range(len(centres))], axis=-1) * difference[..., None]
+    weighted = basis * scale[..., None]
+    return weighted.T @ basis, weighted.T @ target
+
+
+def bounded_least_squares(gram, rhs, lower=0.0, upper=1.0):
+    """argmin over lower <= w <= upper of w^T G w - 2 c^T w (G (K, K) symmetric
+    positive semi-definite, c (K,); K up to 10): every assignment of each
+    variable to its lower bound, its upper bound or free is solved and the
+    feasible one of least cost kept. The problem is convex, so its minimum is
+    one of these (the Karush-Kuhn-Tucker point); a singular free block takes
+    the least-norm solution."""
+    gram = np.asarray(gram, dtype=np.float64)
+    rhs = np.asarray(rhs, dtype=np.float64)
+    count = len(rhs)
+    if gram.shape != (count, count) or count > 10:
+        raise BakeError(f"bounded_least_squares needs a K x K system with K <= 10, not "
+                        f"{gram.shape}")
+    best, best_cost = None, np.inf
+    slack = 1e-12 * max(1.0, upper - lower)
+    for code in range(3 ** count):
+        state = [(code // 3 ** k) % 3 for k in range(count)]
+        w = np.array([lower if s == 0 else upper for s in state], dtype=np.float64)
+        free = np.array([s == 2 for s in state])
+        if free.any():
+            fixed = ~free
+            block = gram[np.ix_(free, free)]
+            right = rhs[free] - gram[np.ix_(free, fixed)] @ w[fixed]
+            w[free] = np.linalg.lstsq(block, right, rcond=1e-12)[0]
+            if np.any(w[free] < lower - slack) or np.any(w[free] > upper + slack):
+                continue
+        w = np.clip(w, lower, upper)
+        cost = w @ gram @ w - 2.0 * rhs @ w
+        if cost < best_cost - 1e-15 * max(1.0, abs(best_cost) if np.isfinite(best_cost) else 1):
+            best, best_cost = w, cost
+    return best
 
 
 def shade(baked_map, atlas, meta, normals, views, tangents=None):

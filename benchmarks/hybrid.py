@@ -16,8 +16,11 @@ counts as each method's error), by the 3D map at Auto size
 Runtime Sampling nodes compute it (bake.sampling_runtime.shade, their NumPy
 twin, over the level stack glossy.bake_materials makes). Per sample budget
 and bin of mu = n.v it prints each method's relative RMS of luminance,
-pooled over the HDRIs (the root of the mean square), and the least-squares
-blend weight of the regular estimate (bake.hybrid's docstring); ``--write`` stores the table as
+pooled over the HDRIs (the root of the mean square), and the weight of the
+regular estimate at the bin's centre: the knots of the piecewise-linear w(mu)
+the nodes evaluate, fitted by least squares as that curve (``--fit curve``,
+bake.hybrid's docstring; ``--fit bins``: each bin's own constant, the tables
+before stop 70); ``--write`` stores the table as
 bake/hybrid_errors.json, the one bake.hybrid weighs with.
 
 Then the hybrid against both methods alone, per budget, HDRI and roughness,
@@ -27,7 +30,7 @@ judges the table on the scene it was measured on.
     .venv/bin/python benchmarks/hybrid.py [--write] [--no-lights] [--face auto|world|64]
         [--brdf ggx|beckmann] [--truth texels|bilinear|world] [--supersample 2]
         [--roughness 0.1,0.2] [--hdri night,city] [--save out/m.pkl | --load out/m.pkl]
-        [--lights cube|world|auto]
+        [--lights cube|world|auto] [--fit curve|bins]
 
 ``--lights world`` (with ``--truth world``) measures the probe's lights on the
 world's own texels (bake.world_lights) instead of the cube's; ``auto`` only
@@ -163,6 +166,12 @@ LIGHT_SOURCES = ("cube", "world", "auto")
 #: tables); S averages S x S sub-pixels, the footprint EEVEE's and Cycles' anti-aliasing
 #: integrate.
 SUPERSAMPLE = [1]
+#: How the weights are fitted (``--fit``): "curve", the knot values of the
+#: piecewise-linear w(mu) the nodes evaluate (bake.hybrid.curve_normal_equations,
+#: bounded to [0, 1]: the committed tables since stop 70), or "bins", one
+#: constant per mu bin (the tables before).
+FIT = ["curve"]
+FITS = ("curve", "bins")
 
 
 def sphere_pixels(size, supersample=1):
@@ -272,6 +281,7 @@ def binned_squares(mu, truth, estimate):
 def table_from(results, names, face="auto"):
     """The pooled error and least-squares weight table over the HDRIs ``names``."""
     bins = len(EDGES) - 1
+    centres = 0.5 * (np.array(EDGES[:-1]) + np.array(EDGES[1:]))
     map_error = np.zeros((len(ROUGHNESS), bins))
     regular_error = np.zeros((len(BUDGETS), len(ROUGHNESS), bins))
     weight = np.zeros_like(regular_error)
@@ -285,6 +295,7 @@ def table_from(results, names, face="auto"):
         for s, budget in enumerate(BUDGETS):
             relative = []
             numerator, denominator = np.zeros(bins), np.zeros(bins)
+            gram, rhs = np.zeros((bins, bins)), np.zeros(bins)
             for name in names:
                 mu, truth, baked, regular, (term, share) = results[name][roughness]
                 regular = regular[budget]
@@ -299,8 +310,14 @@ def table_from(results, names, face="auto"):
                                    np.maximum(np.bincount(index, None, bins), 1), 1e-300)
                 numerator += np.bincount(index, (baked - truth) * (baked - regular), bins) / scale
                 denominator += np.bincount(index, (baked - regular) ** 2, bins) / scale
+                equations = hybrid.curve_normal_equations(mu, baked, regular, truth,
+                                                          1.0 / scale[index], centres)
+                gram, rhs = gram + equations[0], rhs + equations[1]
             regular_error[s, i] = np.sqrt(np.mean(relative, axis=0))
-            weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
+            if FIT[0] == "curve":
+                weight[s, i] = hybrid.bounded_least_squares(gram, rhs)
+            else:
+                weight[s, i] = np.clip(numerator / np.maximum(denominator, 1e-300), 0.0, 1.0)
     return hybrid.ErrorTable(ROUGHNESS, EDGES, map_error, regular_error, weight,
                              {"hdris": list(names), "sphere": 64,
                               "probe_face": {str(r): auto_face(r) for r in ROUGHNESS}
@@ -308,7 +325,7 @@ def table_from(results, names, face="auto"):
                               {f"{n} {r}": FACES_USED.get((n, r)) for n in names
                                for r in ROUGHNESS} if face == "world" else face,
                               "brdf": f"{KIND[0]} (isotropic)", "truth": TRUTH[0],
-                              "supersample": SUPERSAMPLE[0]},
+                              "supersample": SUPERSAMPLE[0], "fit": FIT[0]},
                              BUDGETS)
 
 
@@ -347,6 +364,9 @@ def main():
                         help="measure the probe's lights on the cube (the bake's), on the "
                              "world's own texels (bake.world_lights; needs --truth world), or "
                              "on the world's where the lobe resolves them")
+    parser.add_argument("--fit", default="curve", choices=FITS,
+                        help="fit the knots of the curve the nodes evaluate (the committed "
+                             "tables) or one constant per mu bin (the tables before stop 70)")
     parser.add_argument("--save", default=None,
                         help="also store the per-pixel measurements (a pickle, e.g. under "
                              "out/) for --load")
@@ -355,6 +375,7 @@ def main():
                              "measuring (same --brdf, --face, --truth, --supersample)")
     args = parser.parse_args()
     KIND[0] = args.brdf
+    FIT[0] = args.fit
     LIGHTS[0] = args.lights
     if args.lights != "cube" and args.truth != "world":
         parser.error("--lights world|auto needs --truth world (the texel sum is the cube's)")

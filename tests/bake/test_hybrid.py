@@ -57,6 +57,59 @@ def test_the_node_curve_is_the_tables_interpolation():
                                        atol=1e-12)
 
 
+
+def _blend_data(seed=0, count=4000):
+    rng = np.random.default_rng(seed)
+    mu = rng.random(count)
+    baked = rng.normal(1.0, 0.3, count)
+    regular = baked + rng.normal(0.0, 0.2, count)
+    return rng, mu, baked, regular
+
+
+def test_the_curve_fit_is_the_squared_error_of_the_curve_the_nodes_evaluate():
+    """curve_normal_equations' quadratic form is the weighted squared error of the
+    blend through blend_curve (the nodes' w(mu)) for any knot values, and a truth
+    that is such a blend gives back its knots (bounded_least_squares)."""
+    rng, mu, baked, regular = _blend_data()
+    centres = np.array([0.05, 0.15, 0.275, 0.425, 0.6, 0.85])
+    knots = np.array([0.7, 0.5, 1.0, 0.9, 0.4, 0.0])
+    truth = baked + hybrid.blend_curve(mu, centres, knots) * (regular - baked)
+    scale = rng.uniform(0.5, 2.0, mu.shape)
+    gram, rhs = hybrid.curve_normal_equations(mu, baked, regular, truth, scale, centres)
+    constant = np.sum(scale * (truth - baked) ** 2)
+    for w in (knots, rng.random(6), np.zeros(6)):
+        blend = baked + hybrid.blend_curve(mu, centres, w) * (regular - baked)
+        np.testing.assert_allclose(w @ gram @ w - 2 * rhs @ w + constant,
+                                   np.sum(scale * (blend - truth) ** 2), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(hybrid.bounded_least_squares(gram, rhs), knots, atol=1e-9)
+
+
+def test_bounded_least_squares_meets_the_optimality_conditions_at_the_bounds():
+    """Where the unconstrained optimum leaves [0, 1] the result satisfies the
+    Karush-Kuhn-Tucker conditions (an independent criterion of the minimum of a
+    convex problem): zero gradient on the free knots, pointing out of the box on
+    the knots held at 0 or 1; and no random point of the box does better."""
+    rng, mu, baked, regular = _blend_data(1)
+    centres = np.array([0.1, 0.3, 0.5, 0.7, 0.9])
+    unbounded = np.array([-0.6, 0.3, 1.7, 0.8, 1.2])
+    truth = baked + hybrid.blend_curve(mu, centres, unbounded) * (regular - baked) \
+        + rng.normal(0.0, 0.05, mu.shape)
+    gram, rhs = hybrid.curve_normal_equations(mu, baked, regular, truth, 1.0, centres)
+    w = hybrid.bounded_least_squares(gram, rhs)
+    assert np.all((w >= 0) & (w <= 1))
+    assert w[0] == 0.0 and w[2] == 1.0  # the unconstrained optimum is out of the box there
+    gradient = 2.0 * (gram @ w - rhs)
+    tolerance = 1e-8 * np.abs(rhs).max()
+    free = (w > 0) & (w < 1)
+    assert np.all(np.abs(gradient[free]) < tolerance), gradient
+    assert np.all(gradient[w == 0] > -tolerance) and np.all(gradient[w == 1] < tolerance)
+    cost = w @ gram @ w - 2 * rhs @ w
+    for other in rng.random((2000, 5)):
+        assert other @ gram @ other - 2 * rhs @ other >= cost - 1e-9 * abs(cost)
+    with pytest.raises(BakeError, match="K <= 10"):
+        hybrid.bounded_least_squares(np.eye(11), np.zeros(11))
+
+
 def test_a_table_of_one_budget_still_reads(tmp_path):
     """A table written before the budget axis (weights (R, B), meta budget 19)."""
     table = hybrid.load_table()
