@@ -65,11 +65,12 @@ spread, so the map keeps the blend near normal incidence (w = 0 above n.v
 0.7 at every roughness with 19 samples, 0-0.26 at n.v 0.5-0.7 for roughness
 0.1-0.45, where GGX's table gave 0.42-0.84 before stop 70's curve fit).
 Leave one out it puts the Hybrid below both methods in 37 / 38 / 23 of 40
-cases at 19 / 61 / 127 samples
-(the table before: 35 of 40 at 19), above both in none. Its knots are
-still the per-bin constants (``--fit bins``, before stop 70; its meta has
-no "fit"): GGX's curve fit changed GGX's EEVEE figures by at most 0.02
-point, so Beckmann's measurement (about 20 minutes) was not redone.
+cases at 19 / 61 / 127 samples (the table before: 35 of 40 at 19), above
+both in none. Its knots are still the per-bin constants (``--fit bins``,
+before stop 70; its meta has no "fit"): where GGX was measured in EEVEE
+with both fits (interior and sunrise at GGX 0.1, 2 x 4096 spp) the Hybrid
+moved by 0.02 point or less, so Beckmann's measurement (about 20 minutes
+here) was not redone for it.
 """
 
 import json
