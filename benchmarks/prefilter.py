@@ -50,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bake import (  # noqa: E402
     atlas,
+    blas_threads,
     brdf,
     envmap,
     exr,
@@ -309,7 +310,14 @@ def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid
     default Max Map Size, rounded down to a power of two, as
     operators.bake_materials.runtime_height gives it), 19 samples, the blend
     weights, written beside the map; with Probe Lights on (the default), both
-    from the probe without its small bright lights."""
+    from the probe without its small bright lights. Under one OpenBLAS thread, as
+    the operator bakes (bake.blas_threads: its idle threads spin against the
+    bake's own workers)."""
+    with blas_threads.limited():
+        return _bake_like_blender(probe, spec, diffuse, folder, steps, hybrid_too)
+
+
+def _bake_like_blender(probe, spec, diffuse, folder, steps, hybrid_too):
     start = time.perf_counter()
     glossy_probe = probe
     if hybrid_too:
@@ -418,11 +426,12 @@ def eight_materials():
         for spec in specs:
             lobes._CACHE.clear()
             start = time.perf_counter()
-            fit = lobes.fit(spec, slices=16)
-            baked = prefilter.prefilter(probe, fit, "3d", "auto", layout="cube")
-            image, meta = atlas.pack(baked)
-            exr.write(Path(tmp) / "own.exr", image, meta,
-                      half=atlas.storage_precision(image) == "half")
+            with blas_threads.limited():
+                fit = lobes.fit(spec, slices=16)
+                baked = prefilter.prefilter(probe, fit, "3d", "auto", layout="cube")
+                image, meta = atlas.pack(baked)
+                exr.write(Path(tmp) / "own.exr", image, meta,
+                          half=atlas.storage_precision(image) == "half")
             own += time.perf_counter() - start
         # The same with the default method: the Hybrid for the seven GGX lobes (its
         # runtime texture's level stack is the probe's alone, made once per probe).
