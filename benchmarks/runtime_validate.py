@@ -31,6 +31,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -101,8 +102,10 @@ def main():
                 figures = result["S"]["figures"]
             except (OSError, KeyError, ValueError):
                 tail = (process.stderr or process.stdout).strip().splitlines()[-1:]
-                print(f"{Path(hdri).stem:10s} {case:22s} failed: {tail}", flush=True)
+                print(f"{Path(hdri).stem:10s} {case:22s} failed: {tail} (its files: {work})",
+                      flush=True)
                 continue
+            shutil.rmtree(work, ignore_errors=True)  # renders and bakes, up to 30 MB a case
             figures_of[(hdri, case)] = figures
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
             face = re.search(r"(\d+) px", result["S"].get("probe_reason", ""))

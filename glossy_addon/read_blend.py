@@ -8,12 +8,20 @@ never imports bpy. Prints {"spec", "ignored", "approximated"} or {"error"}.
 
 import json
 import os
+import shutil
 import sys
 import tempfile
 
 
 def main(root, blend, name) -> dict:
     folder = tempfile.mkdtemp(prefix="glossy_read_")
+    try:
+        return _read(folder, root, blend, name)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)  # the link only, never the repository
+
+
+def _read(folder, root, blend, name) -> dict:
     os.symlink(root, os.path.join(folder, "glossy"))  # the repository as package ``glossy``
     sys.path.insert(0, folder)
     try:
