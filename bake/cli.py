@@ -212,7 +212,7 @@ def cmd_fit(args):
     output = outputs.check_target(args.output, ".json")
     progress = None if args.quiet else LinePrinter()
     result = lobes.fit(args.brdf, slices=args.slices, lobes=args.lobes, mode=args.mode,
-                       progress=progress)
+                       progress=progress, centre=args.centre)
     result.save(output)
     for s in result.slices:
         print(f"cos(theta_o) = {s.mu:.3f}: {len(s.lobes)} lobe(s), offsets "
@@ -681,6 +681,9 @@ def _build_parser():
     p.add_argument("--slices", type=int, default=16, help="view elevations K (default 16)")
     p.add_argument("--lobes", type=int, default=1, help="lobes per slice (default 1)")
     p.add_argument("--mode", default="3d", choices=["3d", "2d"], help="3d or 2d lobe")
+    p.add_argument("--centre", default="best", choices=["best", "peak"],
+                   help="the first lobe's centre: best (between the slice's peak and "
+                        "centroid, the default) or peak (Kautz & McCool's)")
     p.add_argument("-o", "--output", required=True, help="output .json")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(run=cmd_fit)

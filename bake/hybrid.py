@@ -12,9 +12,12 @@ two:
 with w per bin of view elevation mu = n.v and per roughness, *measured* on
 Blender's bundled HDRIs by ``benchmarks/hybrid.py`` (which writes
 ``hybrid_errors.json`` beside this module; nothing here is tuned by hand),
-each roughness and HDRI from a probe of the face Auto captures for it
+each roughness (GGX 0.1, 0.2, 0.3, 0.45, 0.6, 0.8 and 1; 0.8 and 1 since stop
+72: until then a rougher lobe took 0.6's weights, and at 0.8 the Hybrid measured
+above Runtime Sampling in EEVEE in three of eight HDRIs) and HDRI from a probe
+of the face Auto captures for it
 (``--face world``: bake.resolution.choose_probe_face's lobe rule, 200 px at
-GGX 0.1 to 32 px at 0.6, raised for the HDRI's small lights by
+GGX 0.1 to 24 px at 0.8 and 1, raised for the HDRI's small lights by
 bake.probe_detail: up to 328 px at GGX 0.1), so the weights judge the two
 methods where the bake uses them (measured at 64 px for all, GGX 0.1 had w
 near 0 from n.v 0 to 0.35: there the coarse probe limited regular sampling;
@@ -44,8 +47,9 @@ over the bin's pixels (clamped), which the curve then interpolated between
 the centres: at GGX 0.1 its fall from 0.97 (n.v 0.35-0.5) to 0.42 (0.5-0.7)
 let the map into the upper half of the 0.35-0.5 bin, where the map is the
 worse estimate (``benchmarks/hybrid.py --fit bins`` fits as before). Leave
-one out in NumPy the two fits are level (pooled 2.656 / 2.649% at 19
-samples, 2.431 / 2.436% at 61, 2.271 / 2.289% at 127, curve / bins). Unlike an
+one out in NumPy the two fits are level (stop 70: pooled 2.656 / 2.649% at 19
+samples, 2.431 / 2.436% at 61, 2.271 / 2.289% at 127, curve / bins; stop 72,
+seven roughness values: 2.37 / 2.37%, 2.13 / 2.12%, 1.98 / 2.00%). Unlike an
 inverse-variance weight it accounts for the two errors being correlated
 (both limited by the probe, e.g. roughness 0.1 under a tiny sun). The table
 also records each method's relative RMS error per bin. The regular
@@ -57,21 +61,25 @@ bins' centres, roughness on its grid, the budget in log2; clamped outside).
 
 Cycles' Beckmann lobe, which runtime sampling estimates through GGX's visible
 normals (bake.sampling_runtime), has a table of its own,
-``hybrid_errors_beckmann.json`` (``benchmarks/hybrid.py --brdf beckmann
+``hybrid_errors_beckmann.json`` (``benchmarks/hybrid.py --brdf beckmann --fit bins
 --face world --supersample 2 --write``, measured as GGX's since stop 44: 2 x 2
 sub-pixels, the weights fitted on the residual probe, the lights' term of
 stop 43): its runtime estimate carries the importance weights' extra
-spread, so the map keeps the blend near normal incidence (w = 0 above n.v
-0.7 at every roughness with 19 samples, 0-0.26 at n.v 0.5-0.7 for roughness
-0.1-0.45, where GGX's table gave 0.42-0.84 before stop 70's curve fit).
-Leave one out it puts the Hybrid below both methods in 37 / 38 / 23 of 40
-cases at 19 / 61 / 127 samples (the table before: 35 of 40 at 19), above
-both in none. Its knots are the per-bin constants (``--fit bins``; its meta
-has no "fit"), on evidence: measured again at stop 71 (13 minutes here),
+spread, so the map keeps the blend near normal incidence (with 19 samples w =
+0-0.01 above n.v 0.7 for roughness 0.1-0.8 and 0.18 at 1, 0-0.16 at n.v
+0.5-0.7, where GGX's table gives 0.14-0.79).
+Leave one out it puts the Hybrid below both methods in 50 / 46 / 30 of 56
+cases at 19 / 61 / 127 samples (stop 72: seven roughness values, the 3D map's
+lobes about bake.lobes' best centre; stop 71's five, about the peak: 37 / 38
+/ 23 of 40), above both in none. Its knots are the per-bin constants
+(``--fit bins``; its meta has no "fit"), on evidence: measured again at stop
+71 (13 minutes here, the map's lobes then about the peak),
 the data fitted per bin give the committed knots to 0.01, and fitted as the
 curve they do worse left one out (pooled 2.877% against 2.834% at 19
 samples, the worst case 1.28x its better method alone against 1.10x; level
-at 61 and 127 samples: 2.427 / 2.419%, 2.238 / 2.242%).
+at 61 and 127 samples: 2.427 / 2.419%, 2.238 / 2.242%); at stop 72, on the
+new map and seven roughness values, 2.46% against 2.42% at 19 samples,
+2.11 / 2.10% at 61 and 1.93 / 1.93% at 127 (curve / bins).
 """
 
 import json

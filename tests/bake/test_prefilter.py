@@ -141,7 +141,7 @@ def test_single_bright_texel_appears_where_the_peak_offset_says():
     """A bright texel lights the view whose lobe peak, turned by the slice's offset
     from the mirror direction, falls on it, as the true BRDF says it must."""
     spec = "ggx:roughness=0.8"
-    fit = lobes.fit(spec, slices=6)
+    fit = lobes.fit(spec, slices=6, centre="peak")  # lobes about the slices' peaks
     model = brdf.parse(spec)
     normal = np.array([0.0, 0.0, 1.0])
     for k in (1, 2, 3):  # offsets of -0.31, -0.25, -0.18 rad: several texels
