@@ -24,6 +24,7 @@ Cycles' noise at that sample count.
                                         hybrid-nolights: Probe Lights off)
         [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
         [--rotate 20,0,135] [--strength 2]   (the world turned by a Mapping node)
+        [--max-map-size 768]   (every material's Max Map Size, Auto's bound)
 """
 
 import argparse
@@ -65,6 +66,8 @@ def main():
                         help="turn the world's image by a Mapping node: Euler X,Y,Z degrees")
     parser.add_argument("--strength", type=float, default=1.0,
                         help="the world's Background Strength (default 1)")
+    parser.add_argument("--max-map-size", type=int, default=None,
+                        help="every material's Max Map Size (default: the add-on's, 384)")
     parser.add_argument("--case", action="append",
                         help="method:roughness:anisotropy:samples (repeatable)")
     args = parser.parse_args()
@@ -75,6 +78,8 @@ def main():
         degrees = [float(a) for a in (args.rotate or "0,0,0").split(",")]
         environment["GLOSSY_WORLD_MAPPING"] = json.dumps(
             {"rotation": [math.radians(a) for a in degrees], "strength": args.strength})
+    if args.max_map_size:
+        environment["GLOSSY_MAX_MAP_SIZE"] = str(args.max_map_size)
     print(f"{args.size}^2 px, Cycles 2 x {args.cycles} spp, EEVEE {args.eevee} samples, "
           f"probe {args.probe}; relative RMS of luminance against Cycles", flush=True)
     print(f"{'HDRI':10s} {'case':22s} {'Glossy':>7s} {'native':>7s} {'careful':>7s} "

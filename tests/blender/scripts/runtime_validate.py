@@ -25,6 +25,8 @@ Auto (the lobe's width, capped by the world image's detail).
 GLOSSY_WORLD_MAPPING (environment, JSON {"rotation": [x, y, z] rad,
 "strength": s}): the world's image goes through a Mapping node with that
 rotation, at that Background Strength.
+GLOSSY_MAX_MAP_SIZE (environment): every material's Max Map Size (the upper
+bound of Auto's map rows, and of the runtime level stack's).
 """
 
 import json
@@ -166,6 +168,8 @@ for index, (name, method, roughness, anisotropy, rotation, *extra) in enumerate(
             bsdf.inputs[socket].default_value = value
     if budget:
         settings.samples = int(budget[0])
+    if os.environ.get("GLOSSY_MAX_MAP_SIZE"):  # Max Map Size (Auto's bound), rows
+        settings.map_size = int(os.environ["GLOSSY_MAX_MAP_SIZE"])
     obj.data.materials.append(material)
     objects.append(obj)
     result[name] = {"capture": run(bpy.ops.glossy.capture_probes),
