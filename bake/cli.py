@@ -707,8 +707,8 @@ def _build_parser():
                    help="samples per pixel: the regular pattern with the closest count "
                         "(default 19)")
     p.add_argument("--height", type=_positive_int, default=None,
-                   help="rows of the level stack (a power of two; default: the probe's own "
-                        "detail, at most --max-size)")
+                   help="rows of the level stack (a power of two or three times one; "
+                        "default: the probe's own detail, at most --max-size)")
     p.add_argument("--no-lights", action="store_true",
                    help="keep the probe's small bright lights in the level stack rather "
                         "than shading them exactly")

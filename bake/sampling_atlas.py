@@ -27,9 +27,43 @@ from .envmap import convert, get_layout
 from .envmap.mip import pyramid
 from .errors import BakeError
 
-__all__ = ["pack_levels", "AtlasProbe", "MODE"]
+__all__ = ["pack_levels", "AtlasProbe", "MODE", "is_stack_height", "stack_rows_below",
+           "level_count"]
 
 MODE = "atlas_levels"
+
+
+def is_stack_height(rows: int) -> bool:
+    """Whether a level stack may have ``rows`` lat-long rows: a power of two of at
+    least 4, or three times a power of two of at least 6. Either halves exactly
+    level by level (each level's box reduction takes two rows into one) down to 2
+    or 3 rows: 384 = 3 x 2^7 keeps a map's default Max Map Size whole, where
+    rounding it down to a power of two (256) lost a third of the rows, and with
+    them a near-mirror lobe's detail."""
+    rows = int(rows)
+    if rows < 4:
+        return False
+    odd = rows >> ((rows & -rows).bit_length() - 1)  # rows without its factors of two
+    return odd == 1 or (odd == 3 and rows >= 6)
+
+
+def stack_rows_below(wanted: int) -> int:
+    """The most rows :func:`is_stack_height` allows that are at most ``wanted``
+    (at least 4): 656 -> 512, 400 -> 384, 200 -> 192, 100 -> 96."""
+    wanted = max(4, int(wanted))
+    power = 1 << (wanted.bit_length() - 1)  # the largest power of two <= wanted
+    three = 3 * (power >> 1)  # 1.5 x it: at most wanted when wanted >= 1.5 power
+    return three if 6 <= three <= wanted else power
+
+
+def level_count(rows: int) -> int:
+    """Levels of a stack of ``rows`` (:func:`is_stack_height`): the base and each
+    exact halving down to 2 rows (a power of two) or 3 (three times one)."""
+    rows, count = int(rows), 1
+    while rows > 3:
+        rows //= 2
+        count += 1
+    return count
 
 
 def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None, base=None):
@@ -45,8 +79,9 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None,
     probe = layout_obj.check_image(probe)[..., :3].astype(np.float32)
     if height is None:
         height = 2 * probe.shape[0] if layout_obj.name == "cube" else probe.shape[0]
-    if int(height) != height or height < 4 or int(height) & (int(height) - 1):
-        raise BakeError(f"the atlas height must be a power of two >= 4, not {height!r}")
+    if int(height) != height or not is_stack_height(int(height)):
+        raise BakeError(f"the atlas height must be a power of two >= 4 or three times one "
+                        f"(6, 12, ..., 384, 768), not {height!r}")
     height = int(height)
     latlong = get_layout("latlong")
     if base is not None:
@@ -57,7 +92,7 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None,
         base = probe
     else:
         base = convert(probe, layout_obj.name, "latlong", height).astype(np.float32)
-    most = int(np.log2(height))  # down to 2 rows
+    most = level_count(height)  # down to 2 rows, or 3
     count = most if levels is None else int(levels)
     if not 1 <= count <= most:
         raise BakeError(f"levels must lie in 1..{most} for height {height}, not {levels!r}")

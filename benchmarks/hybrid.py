@@ -90,7 +90,8 @@ ROUGHNESS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0)
 EDGES = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0)
 BUDGETS = (19, 61, 127)
 #: The default Max Map Size, which bounds the runtime level stack's rows in the bake
-#: (operators.bake_materials.runtime_height, rounded down to a power of two: 256).
+#: (operators.bake_materials.runtime_height: bake.sampling_runtime.stack_height, rounded
+#: down to a power of two or three times one: 384; a power of two, 256, before stop 73).
 STACK_ROWS_MAX = prefilter.DEFAULT_MAX_SIZE
 #: (HDRI, roughness) -> the probe face :func:`renders` used.
 FACES_USED = {}
@@ -110,10 +111,10 @@ def runtime_twin(cube, spec, budget, normals, views, lights=()):
     """(N, 3) the Runtime Sampling nodes' radiance (bake.sampling_runtime.shade, their
     NumPy twin) with the level stack glossy.bake_materials makes for this probe
     (operators.bake_materials.runtime_height at Auto: twice the face's rows, at
-    most the default Max Map Size, rounded down to a power of two): the estimate the Hybrid
-    blends; with ``lights`` (``cube`` then the residual), their exact term is
-    included."""
-    rows = 1 << int(np.floor(np.log2(min(STACK_ROWS_MAX, 2 * cube.shape[0]))))
+    most the default Max Map Size, bake.sampling_runtime.stack_height): the estimate
+    the Hybrid blends; with ``lights`` (``cube`` then the residual), their exact term
+    is included."""
+    rows = sampling_runtime.stack_height(cube.shape, "cube", cap=STACK_ROWS_MAX)[0]
     atlas, meta = sampling_runtime.pack(cube, spec, layout="cube", budget=budget, height=rows,
                                         lights=lights)
     return sampling_runtime.shade(atlas, meta, normals, views)
@@ -418,6 +419,9 @@ def main():
     table.meta["probe_lights"] = not args.no_lights
     # The 3D map's lobes about the centre bake.lobes chooses (stop 72), not the peak.
     table.meta["lobe_centre"] = "best"
+    # The runtime level stack's rows: a power of two or three times one (stop 73:
+    # 384 at the default Max Map Size), not a power of two.
+    table.meta["stack_rows"] = "power of two or three times one"
     print("\npooled relative RMS per mu bin, map / regular, and the weight w of regular:")
     for s, budget in enumerate(BUDGETS):
         print(f"{budget} samples")

@@ -307,7 +307,7 @@ def bake_like_blender(probe, spec, diffuse=None, folder=None, steps=None, hybrid
     ``hybrid_too``: also the Hybrid's runtime-sampling texture, what the default
     method (Auto) bakes for an isotropic GGX lobe (glossy_addon.method_choice):
     the level stack of the probe's own detail (twice a face's rows, at most the
-    default Max Map Size, rounded down to a power of two, as
+    default Max Map Size, bake.sampling_runtime.stack_height, as
     operators.bake_materials.runtime_height gives it), 19 samples, the blend
     weights, written beside the map; with Probe Lights on (the default), both
     from the probe without its small bright lights. Under one OpenBLAS thread, as
@@ -324,7 +324,8 @@ def _bake_like_blender(probe, spec, diffuse, folder, steps, hybrid_too):
         tick = time.perf_counter()
         lobe = sampling_runtime.check(spec)[0]
         glossy_probe, lights = probe_lights.extract_kept(probe, "cube", lobe.mx, lobe.my)
-        rows = 1 << int(np.floor(np.log2(min(2 * probe.shape[0], prefilter.DEFAULT_MAX_SIZE))))
+        rows = sampling_runtime.stack_height(probe.shape, "cube",
+                                             cap=prefilter.DEFAULT_MAX_SIZE)[0]
         image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19, height=rows,
                                             lights=lights)
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),

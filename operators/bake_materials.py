@@ -163,7 +163,7 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, l
 def runtime_height(settings, probe, layout) -> tuple:
     """(rows, why) of the runtime-sampling level stack
     (bake.sampling_runtime.stack_height): the probe's own detail, at most Map Size
-    (Auto) or Map Size (Fixed), as a power of two."""
+    (Auto) or Map Size (Fixed), as a power of two or three times one."""
     fixed = settings.map_size if settings.size_mode == "FIXED" else None
     return sampling_runtime.stack_height(probe.shape, layout, fixed=fixed,
                                          cap=settings.map_size)
