@@ -55,7 +55,22 @@ residual probe with the lights' exact term and runtime sampling in 35 of 40
 cases, and far below the 3D map of the whole probe that Auto gave Beckmann
 before (e.g. interior 0.3: 39.6% with GGX's table already down to 1.9%).
 In EEVEE against Cycles: docs/HISTORY.md, "Stop 37".
+
+Near-mirror GGX lobes (roughness below 0.1, the first row of the Hybrid's
+table: :func:`near_mirror_alpha`) get Runtime Sampling since stop 73, unless a
+colour texture splits the map. The table's weights there are 0.1's, measured
+for a wider lobe, and at GGX 0.05 the runtime estimate alone measured below
+the Hybrid everywhere. In EEVEE against Cycles (328 px probes, Max Map Size
+384, courtyard / night / sunset), Runtime Sampling measured 4.3 / 11.0 / 0.9%,
+the Hybrid 4.6 / 11.5 / 1.1% and the 3D map 5.8 / 61.6 / 21.7%. Careful
+native EEVEE measured 9.6 / 38.1 / 29.6%. In NumPy, against the world's own
+integral (benchmarks/stack_rows.py), Runtime Sampling was at or below the
+Hybrid in all eight HDRIs. A row measured at 0.05 gave no blend below both
+methods, leaving one HDRI out, in any of the eight (benchmarks/hybrid.py
+--roughness 0.05 --truth bilinear).
 """
+
+import functools
 
 import bpy
 
@@ -114,6 +129,10 @@ def choose(settings) -> tuple:
                       + ("; the probe's small bright lights beside them, shaded exactly at "
                          "the pixel's roughness (Probe Lights)"
                          if knot_lights_apply(settings) else ""))
+    if lobe.kind == "ggx" and lobe.mx < near_mirror_alpha() and not _colour_split(settings):
+        return "runtime", (f"Runtime Sampling: a near-mirror GGX lobe (alpha {lobe.mx:.2g}, "
+                           f"roughness below {near_mirror_alpha() ** 0.5:g}, the Hybrid's "
+                           f"table), where it measured below the Hybrid and the 3D map")
     if lobe.kind == "beckmann":
         return "hybrid", ("Hybrid: an isotropic Beckmann lobe (sampled through GGX's "
                           "visible normals), where it measured below the 3D map")
@@ -133,6 +152,28 @@ def knot_lights_apply(settings) -> bool:
     except (BakeError, ValueError):
         return False
     return not lobe.anisotropic
+
+
+@functools.lru_cache(maxsize=1)
+def near_mirror_alpha() -> float:
+    """The GGX alpha below which Auto bakes Runtime Sampling rather than the Hybrid:
+    the square of the lowest roughness the Hybrid's GGX table measured (0.1), under
+    which its weights are 0.1's, taken beyond what they were measured for (module
+    doc, "near-mirror lobes")."""
+    from ..bake.hybrid import load_table
+
+    return float(load_table(kind="ggx").roughness[0]) ** 2
+
+
+def _colour_split(settings) -> bool:
+    """Whether a From Material tree's colour texture splits the map (the Hybrid follows
+    it per pixel through its map part; glossy_addon.spatial.map_variants)."""
+    if settings.model != "MATERIAL":
+        return False
+    from .material_source import parts
+    from .spatial import map_variants
+
+    return bool(map_variants(parts(settings.id_data), colour=True))
 
 
 def _per_pixel_texture(settings) -> str:

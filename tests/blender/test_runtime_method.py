@@ -64,7 +64,8 @@ def test_auto_chooses_the_hybrid_only_for_an_isotropic_sampled_lobe(brushed):
     Beckmann BSDF), Runtime Sampling for an anisotropic one, the 3D map for
     lobes the nodes cannot sample (Ward, a Principled BSDF with a coat), for a
     roughness texture and for a fixed map size too small for the runtime
-    texture; a method set by hand is kept, with no reason shown."""
+    texture; a method set by hand is kept, with no reason shown; Runtime Sampling
+    for a near-mirror GGX lobe."""
     choices = brushed["choices"]
     assert choices["ggx"][0] == choices["principled"][0] == choices["beckmann"][0] == "hybrid"
     assert "Beckmann" in choices["beckmann"][1]
@@ -76,6 +77,14 @@ def test_auto_chooses_the_hybrid_only_for_an_isotropic_sampled_lobe(brushed):
     assert "ward" in choices["ward"][1]
     for label in ("ggx", "ggx_anisotropic", "beckmann", "principled"):
         assert choices[f"{label}_set"] == ["3d", ""]
+    # Near-mirror GGX (below 0.1, where the Hybrid's table has no row and Runtime
+    # Sampling measured below it: method_choice's module doc) gets Runtime Sampling,
+    # a GGX BSDF and a Principled metal alike; 0.1 itself, Beckmann and a colour
+    # texture that splits the map keep the Hybrid.
+    assert choices["ggx_0.05"][0] == choices["metal_0.05"][0] == "runtime", choices
+    assert "near-mirror" in choices["ggx_0.05"][1]
+    for label in ("ggx_0.1", "beckmann_0.05", "metal_0.05_checker"):
+        assert choices[label][0] == "hybrid", (label, choices[label])
 
 
 @pytest.fixture(scope="module")

@@ -128,6 +128,25 @@ if checks:
         probe.glossy.method = "3d"
         result["choices"][f"{label}_set"] = list(choose(probe.glossy))
         bpy.data.materials.remove(probe)
+    # Near-mirror GGX lobes (below the Hybrid table's first roughness, 0.1): Runtime
+    # Sampling, unless a colour texture splits the map; Beckmann keeps the Hybrid.
+    for label, model, roughness, colour in (
+            ("ggx_0.05", "ggx", 0.05, False), ("ggx_0.1", "ggx", 0.1, False),
+            ("beckmann_0.05", "beckmann", 0.05, False),
+            ("metal_0.05", "MATERIAL", 0.05, False),
+            ("metal_0.05_checker", "MATERIAL", 0.05, True)):
+        probe = bpy.data.materials.new(f"choice_{label}")
+        probe.glossy.model, probe.glossy.roughness = model, roughness
+        if probe.node_tree is None:  # Blender before 5.0
+            probe.use_nodes = True
+        principled = probe.node_tree.nodes["Principled BSDF"]
+        principled.inputs["Metallic"].default_value = 1.0
+        principled.inputs["Roughness"].default_value = roughness
+        if colour:
+            from _operators import checker_into
+            checker_into(probe.node_tree, principled.inputs["Base Color"])
+        result["choices"][label] = list(choose(probe.glossy))
+        bpy.data.materials.remove(probe)
     tiny = bpy.data.materials.new("choice_tiny")
     tiny.glossy.model, tiny.glossy.size_mode, tiny.glossy.map_size = "ggx", "FIXED", 8
     result["choices"]["ggx_fixed_8"] = list(choose(tiny.glossy))
