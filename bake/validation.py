@@ -43,8 +43,8 @@ import numpy as np
 from . import metrics, outputs, preview
 from .bitmap_font import GLYPHS, HEIGHT, WIDTH
 
-__all__ = ["evaluate_object", "ordering", "diagnosis", "object_sheet", "write_report",
-           "markdown", "METHOD_TITLES"]
+__all__ = ["evaluate_object", "ordering", "deciding_pixels", "diagnosis", "object_sheet",
+           "write_report", "markdown", "METHOD_TITLES"]
 
 METHOD_TITLES = {
     "cycles": "Cycles",
@@ -168,6 +168,31 @@ def ordering(first: dict, second: dict, method="eevee_glossy") -> dict:
     return {"mean": bool(a["relative_rms"] < b["relative_rms"]), "per_seed": seeds,
             "reference": reference,
             "decided_by_noise": bool(seeds is not None and seeds[0] != seeds[1])}
+
+
+def deciding_pixels(first, second, truth, mask):
+    """How few pixels decide which of two renders of the same object is closer to
+    ``truth`` in relative RMS of luminance: the least k such that, leaving out the k
+    pixels that favour the closer render most, the order reverses (or ties).
+
+    first, second, truth: (H, W, 3) linear RGB; mask: (H, W) the object's pixels.
+    Returns (k, pixels in the mask), or (0, pixels) when the two are level. A k
+    of a handful of a sphere's thousands says the order is a few pixels' (a
+    highlight's edge), not the method's over the surface: an isolated sphere
+    in interior.exr at GGX 0.1 had the Hybrid 0.03 point above Runtime
+    Sampling, and 5 pixels at one lamp's highlight held the whole gap."""
+    mask = np.asarray(mask, bool)
+    lum = [metrics.luminance(np.asarray(x, np.float64))[mask] for x in (first, second, truth)]
+    # Per-pixel squared-error difference, positive where ``first`` is the further.
+    gap = (lum[0] - lum[2]) ** 2 - (lum[1] - lum[2]) ** 2
+    total = float(gap.sum())
+    if total == 0.0:
+        return 0, int(mask.sum())
+    favour = np.sort(gap if total > 0 else -gap)[::-1]  # the closer render's best first
+    # The running sum rises while the pixels favour the closer render; its top holds
+    # at least the whole gap, so the first k at which it reaches it exists.
+    reached = np.cumsum(favour) >= abs(total) * (1.0 - 1e-12)
+    return int(np.argmax(reached)) + 1, int(mask.sum())
 
 
 def _draw_text(image, text, x, y, colour=(255, 255, 255)):

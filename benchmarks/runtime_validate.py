@@ -16,7 +16,10 @@ figure sees the same pixels. With two or more cases, each HDRI ends with
 whether the first case's Glossy error is below each other case's against the
 mean of the seeds, each seed alone and the NumPy reference
 (bake.validation.ordering): an order the two seeds disagree on is decided by
-Cycles' noise at that sample count.
+Cycles' noise at that sample count. Each such line ends with how few of the
+sphere's pixels decide the order, against the seeds' mean and against the
+reference (bake.validation.deciding_pixels: leaving those pixels out reverses
+it): a handful says a highlight's edge decides, not the surface.
 
     .venv/bin/python benchmarks/runtime_validate.py [--size 128] [--cycles 256]
         [--eevee 4] [--probe 64|auto] [--hdri sunset|PATH.exr ...]
@@ -42,7 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bake import validation  # noqa: E402
+from bake import exr, validation  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
 CASES = ("3d:0.3:0:19", "runtime:0.3:0:19", "hybrid:0.3:0:19", "runtime:0.3:0.8:14")
@@ -51,6 +54,32 @@ CASES = ("3d:0.3:0:19", "runtime:0.3:0:19", "hybrid:0.3:0:19", "runtime:0.3:0.8:
 def hdri_path(hdri):
     """A bundled HDRI's stem ("night") or a path to any lat-long .exr."""
     return Path(hdri).resolve() if hdri.endswith(".exr") else studio_lights() / f"{hdri}.exr"
+
+
+def report_images(work):
+    """(Glossy's EEVEE render, the mean of Cycles' seeds, the NumPy reference, the
+    sphere's mask) from the glossy.validate report under ``work``, or None."""
+    try:
+        folder = next(Path(work).rglob("report.json")).parent
+        glossy = exr.read(folder / "eevee_glossy.exr")[0][..., :3]
+        truth = 0.5 * (exr.read(folder / "cycles_seed1.exr")[0][..., :3]
+                       + exr.read(folder / "cycles_seed2.exr")[0][..., :3])
+        reference = exr.read(folder / "reference.exr")[0][..., :3]
+        layers = exr.read(folder / "masks.exr", layers=True)[0]
+        mask = next(v for k, v in layers.items() if k.startswith("mask."))[..., 0] > 0.5
+    except (StopIteration, OSError, ValueError, KeyError):
+        return None
+    return glossy, truth, reference, mask
+
+
+def deciding(first, second):
+    """'   (k of N pixels decide it; k' against the reference)'
+    (bake.validation.deciding_pixels), or '' without both cases' images."""
+    if first is None or second is None or first[3].shape != second[3].shape:
+        return ""
+    k, pixels = validation.deciding_pixels(first[0], second[0], first[1], first[3])
+    k_reference, _ = validation.deciding_pixels(first[0], second[0], first[2], first[3])
+    return f"   ({k} of {pixels} pixels decide it; {k_reference} against the reference)"
 
 
 def main():
@@ -87,6 +116,7 @@ def main():
           f"{'seed 1':>7s} {'seed 2':>7s} {'vs ref':>7s}", flush=True)
     cases = args.case or CASES
     figures_of = {}  # (hdri, case) -> figures
+    images_of = {}  # (hdri, case) -> report_images
     for case in cases:
         method, roughness, anisotropy, samples, *principled = case.split(":")
         for hdri in hdris:
@@ -110,6 +140,7 @@ def main():
                 print(f"{Path(hdri).stem:10s} {case:22s} failed: {tail} (its files: {work})",
                       flush=True)
                 continue
+            images_of[(hdri, case)] = report_images(work)
             shutil.rmtree(work, ignore_errors=True)  # renders and bakes, up to 30 MB a case
             figures_of[(hdri, case)] = figures
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
@@ -136,7 +167,8 @@ def main():
                 words = ["yes" if x else "no" if x is not None else "-"
                          for x in (verdict["mean"], *seeds, verdict["reference"])]
                 print(f"{Path(hdri).stem:10s} vs {other:22s} {' / '.join(words)}"
-                      + ("   (decided by Cycles' noise)" if verdict["decided_by_noise"] else ""),
+                      + ("   (decided by Cycles' noise)" if verdict["decided_by_noise"] else "")
+                      + deciding(images_of.get((hdri, cases[0])), images_of.get((hdri, other))),
                       flush=True)
 
 

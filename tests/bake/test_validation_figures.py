@@ -64,6 +64,29 @@ def test_ordering_is_decided_by_noise_when_each_method_sits_on_one_seed():
     assert verdict["reference"] is bool(expected)
 
 
+def test_the_pixels_that_decide_an_order_are_counted():
+    # Grey images (luminance = the value). ``first`` is 0.01 off on all 1000 pixels
+    # (squared error 0.1 in all); ``second`` is exact but for three pixels 0.1**0.5
+    # off (0.3 in all): ``first`` is closer by 0.2. Leaving out two of the three
+    # still leaves ``first`` closer (0.0998 against 0.1); leaving out all three
+    # reverses the order: three pixels decide it. Either way round the count is the same.
+    truth = np.ones((20, 50, 3))
+    mask = np.ones((20, 50), bool)
+    first = truth + 0.01
+    second = truth.copy()
+    second[3, [4, 17, 30]] += np.sqrt(0.1)
+    assert validation.deciding_pixels(first, second, truth, mask) == (3, 1000)
+    assert validation.deciding_pixels(second, first, truth, mask) == (3, 1000)
+    # A gap spread over the whole surface takes most of the pixels to reverse.
+    assert validation.deciding_pixels(truth * 1.01, truth * 1.02, truth, mask)[0] > 700
+    # Pixels outside the mask do not count: without the three, ``second`` is exact
+    # and closer on every pixel left, so all of them decide it. Equal renders are level.
+    inside = mask.copy()
+    inside[3, [4, 17, 30]] = False
+    assert validation.deciding_pixels(first, second, truth, inside) == (997, 997)
+    assert validation.deciding_pixels(first, first, truth, mask) == (0, 1000)
+
+
 def test_by_view_figures_are_reported_per_method_and_tabulated():
     truth, a, b, mask = _images()
     cos_view = np.linspace(0.0, 1.0, mask.size).reshape(mask.shape)
