@@ -117,7 +117,8 @@ from .sampling import DEFAULTS, lobe_of, pattern_for_budget
 from .sampling_atlas import AtlasProbe, pack_levels, stack_rows_below
 
 __all__ = ["pack", "shade", "mip_bias_for", "check", "probe_widths", "samples_of", "MODE",
-           "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS"]
+           "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS",
+           "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS"]
 
 MODE = "atlas_runtime"
 #: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
@@ -148,6 +149,13 @@ BIAS_BY_ALPHA = ((0.09, 0.0), (0.36, -1.0))
 #: (a slice is twice as wide as it is high) and, for an anisotropic lobe with
 #: probe lights, 2 ALBEDO_PHI + 3 rows.
 MIN_STACK_ROWS = 16
+#: Under Auto, a stack that is its bake's only texture (Runtime Sampling, not the
+#: Hybrid's second one) may have up to ALONE_CAP_FACTOR times Max Map Size's rows, at
+#: most ALONE_MAX_ROWS (:func:`stack_height`).
+ALONE_CAP_FACTOR = 2
+#: 1024 rows pack 10 levels and the albedo table's slice, 11 x 1026 = 11286 rows,
+#: within the GPU's 16384-row texture; 1536 would pack 11 x 1538 = 16918.
+ALONE_MAX_ROWS = 1024
 
 
 def _lobe_directions(mu, phi):
@@ -157,7 +165,7 @@ def _lobe_directions(mu, phi):
 
 
 def stack_height(probe_shape, layout, fixed=None, cap=None,
-                 names=("Map Size", "Max Map Size")) -> tuple:
+                 names=("Map Size", "Max Map Size"), alone=False) -> tuple:
     """(rows, why) of the level stack :func:`pack` makes from a probe of
     ``probe_shape`` (H, W) in ``layout``: ``fixed`` rows when given, else the
     probe's own detail (a lat-long twice a cube face's rows, or the rows of a
@@ -171,8 +179,25 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
     the world's brute-force integral in NumPy: runtime sampling 4.1% at 256 rows,
     2.3% at 384, benchmarks/stack_rows.py).
     ``names``: what ``why`` calls the fixed size and the cap (Blender's fields,
-    or the command line's options)."""
+    or the command line's options).
+
+    ``alone``: the stack is the bake's only texture (Runtime Sampling; not the
+    Hybrid's, whose weights were measured with stacks capped at the map's
+    bound). Its cap is then ALONE_CAP_FACTOR times ``cap`` (768 rows at the
+    default Max Map Size of 384), at most ALONE_MAX_ROWS: Max Map Size bounds the
+    prefiltered map because filtering costs grow with its rows' square, while a
+    stack is the probe box-reduced (its packing grows with its texels, 0.4-0.6 s
+    at 384 rows), and a stack of 2N rows has a third of the texels of a
+    twelve-slice 3D map of N. A near-mirror lobe is what Auto gives Runtime
+    Sampling alone (glossy_addon.method_choice), and there the rows were the
+    limit: in EEVEE against Cycles (courtyard.exr, 328 px probe, 19 samples)
+    Beckmann 0.05 measured 6.1% at 384 rows and 4.5% at 512 (the probe's
+    656 rows of detail, rounded down), careful native EEVEE 12.0%."""
     natural = 2 * int(probe_shape[0]) if layout == "cube" else int(probe_shape[0])
+    if alone and fixed is None and cap is not None:
+        cap = min(ALONE_CAP_FACTOR * int(cap), ALONE_MAX_ROWS)
+        names = (names[0], f"{ALONE_CAP_FACTOR} x {names[1]} (the stack is the only "
+                           f"texture), at most {ALONE_MAX_ROWS}")
     if fixed is not None:
         wanted, why = int(fixed), f"set by {names[0]}"
     elif cap is not None and natural > cap:

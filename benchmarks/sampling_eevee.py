@@ -65,9 +65,12 @@ hdri, work, spec, size = sys.argv[2], Path(sys.argv[3]), sys.argv[4], int(sys.ar
 face = int(sys.argv[6])
 max_map = int(sys.argv[7])
 #: The runtime level stack as glossy.bake_materials makes it (operators.bake_materials.
-#: runtime_height at Auto): twice the face's rows, at most Max Map Size, a power of two
-#: or three times one (bake.sampling_runtime.stack_height).
+#: runtime_height at Auto): twice the face's rows, at most Max Map Size (the Hybrid's)
+#: or twice it (Runtime Sampling's, its only texture), a power of two or three times
+#: one (bake.sampling_runtime.stack_height).
 stack_rows = sampling_runtime.stack_height((face, 6 * face), "cube", cap=max_map)[0]
+alone_rows = sampling_runtime.stack_height((face, 6 * face), "cube", cap=max_map,
+                                           alone=True)[0]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 environment_world(scene, hdri)
@@ -125,7 +128,8 @@ def runtime(budget, for_hybrid=False, lights=False):
     if lights:
         lobe = sampling_runtime.check(spec)[0]
         source, taken = probe_lights.extract_for(probe, "cube", lobe.mx, lobe.my)
-    data, meta = sampling_runtime.pack(source, spec, budget=budget, height=stack_rows,
+    data, meta = sampling_runtime.pack(source, spec, budget=budget,
+                                        height=stack_rows if for_hybrid else alone_rows,
                                         lights=taken)
     if for_hybrid:
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),

@@ -57,17 +57,28 @@ before (e.g. interior 0.3: 39.6% with GGX's table already down to 1.9%).
 In EEVEE against Cycles: docs/HISTORY.md, "Stop 37".
 
 Near-mirror GGX lobes (roughness below 0.1, the first row of the Hybrid's
-table: :func:`near_mirror_alpha`) get Runtime Sampling since stop 73, unless a
-colour texture splits the map. The table's weights there are 0.1's, measured
-for a wider lobe, and at GGX 0.05 the runtime estimate alone measured below
-the Hybrid everywhere. In EEVEE against Cycles (328 px probes, Max Map Size
-384, courtyard / night / sunset), Runtime Sampling measured 4.3 / 11.0 / 0.9%,
-the Hybrid 4.6 / 11.5 / 1.1% and the 3D map 5.8 / 61.6 / 21.7%. Careful
-native EEVEE measured 9.6 / 38.1 / 29.6%. In NumPy, against the world's own
-integral (benchmarks/stack_rows.py), Runtime Sampling was at or below the
-Hybrid in all eight HDRIs. A row measured at 0.05 gave no blend below both
-methods, leaving one HDRI out, in any of the eight (benchmarks/hybrid.py
---roughness 0.05 --truth bilinear).
+table: :func:`near_mirror_alpha`) get Runtime Sampling since stop 73, and
+near-mirror Beckmann lobes since stop 74, unless a colour texture splits the
+map. The table's weights there are 0.1's, measured for a wider lobe. At GGX
+0.05 in EEVEE against Cycles (328 px probes, Max Map Size 384, courtyard /
+night / sunset) Runtime Sampling measured 4.3 / 11.0 / 0.9%, the Hybrid 4.6 /
+11.5 / 1.1%, the 3D map 5.8 / 61.6 / 21.7% and careful native EEVEE 9.6 / 38.1
+/ 29.6%. In NumPy, against the world's own integral (benchmarks/stack_rows.py),
+Runtime Sampling was at or below the Hybrid in all eight HDRIs. A row measured
+at 0.05 gave no blend below both methods, leaving one HDRI out, in any of the
+eight (benchmarks/hybrid.py --roughness 0.05 --truth bilinear). Beckmann 0.05
+(stop 74, the same measure, both at 384 rows): Runtime Sampling 6.1 / 12.0 /
+1.7%, the Hybrid 6.1 / 12.7 / 1.8% (courtyard 0.05 point lower), the 3D map 6.3
+/ 80.3 / 29.7%, careful native 12.0 / 46.9 / 46.2%.
+
+At 384 rows both methods carried the rows' limit in courtyard (Beckmann 0.05:
+0.51x careful native). So since stop 74 Runtime Sampling's level stack, its
+only texture and not filtered, may take twice Max Map Size's rows under Auto
+(bake.sampling_runtime.stack_height, ``alone``): 512 from a 328 px probe at the
+default 384. Courtyard then measured 2.9% at GGX 0.05 and 4.5% at Beckmann
+0.05; GGX 0.05 on all eight HDRIs (city / courtyard / forest / interior /
+night / studio / sunrise / sunset) 1.2 / 2.9 / 6.8 / 3.7 / 10.7 / 2.2 / 2.1 /
+0.8%, at most 0.30x careful native (README "Stop 74").
 """
 
 import functools
@@ -129,10 +140,13 @@ def choose(settings) -> tuple:
                       + ("; the probe's small bright lights beside them, shaded exactly at "
                          "the pixel's roughness (Probe Lights)"
                          if knot_lights_apply(settings) else ""))
-    if lobe.kind == "ggx" and lobe.mx < near_mirror_alpha() and not _colour_split(settings):
-        return "runtime", (f"Runtime Sampling: a near-mirror GGX lobe (alpha {lobe.mx:.2g}, "
-                           f"roughness below {near_mirror_alpha() ** 0.5:g}, the Hybrid's "
-                           f"table), where it measured below the Hybrid and the 3D map")
+    if lobe.mx < near_mirror_alpha(lobe.kind) and not _colour_split(settings):
+        name = "GGX" if lobe.kind == "ggx" else "Beckmann"
+        return "runtime", (f"Runtime Sampling: a near-mirror {name} lobe (alpha "
+                           f"{lobe.mx:.2g}, roughness below "
+                           f"{near_mirror_alpha(lobe.kind) ** 0.5:g}, the Hybrid's table), "
+                           f"where it measured below the Hybrid and the 3D map; its level "
+                           f"stack up to twice Max Map Size")
     if lobe.kind == "beckmann":
         return "hybrid", ("Hybrid: an isotropic Beckmann lobe (sampled through GGX's "
                           "visible normals), where it measured below the 3D map")
@@ -154,15 +168,16 @@ def knot_lights_apply(settings) -> bool:
     return not lobe.anisotropic
 
 
-@functools.lru_cache(maxsize=1)
-def near_mirror_alpha() -> float:
-    """The GGX alpha below which Auto bakes Runtime Sampling rather than the Hybrid:
-    the square of the lowest roughness the Hybrid's GGX table measured (0.1), under
-    which its weights are 0.1's, taken beyond what they were measured for (module
-    doc, "near-mirror lobes")."""
+@functools.lru_cache(maxsize=2)
+def near_mirror_alpha(kind="ggx") -> float:
+    """The alpha of a GGX or Beckmann lobe (``kind``) below which Auto bakes Runtime
+    Sampling rather than the Hybrid: the square of the lowest roughness the
+    Hybrid's table of that kind measured (0.1 for both), under which its weights
+    are 0.1's, taken beyond what they were measured for (module doc, "near-mirror
+    lobes")."""
     from ..bake.hybrid import load_table
 
-    return float(load_table(kind="ggx").roughness[0]) ** 2
+    return float(load_table(kind=kind).roughness[0]) ** 2
 
 
 def _colour_split(settings) -> bool:

@@ -5,7 +5,7 @@ rotation and an EXR round trip."""
 import numpy as np
 import pytest
 
-from bake import brdf, exr, reference, sampling, sampling_runtime
+from bake import brdf, exr, reference, sampling, sampling_atlas, sampling_runtime
 from bake.errors import BakeError
 from bake.sampling_atlas import AtlasProbe
 
@@ -395,6 +395,26 @@ def test_the_level_stack_keeps_max_map_size_whole():
     assert sampling_runtime.stack_height((64, 384), "cube", fixed=100)[0] == 96
     rows, why = sampling_runtime.stack_height((128, 768), "cube", cap=384)
     assert (rows, why) == (256, "the probe's own detail")
+
+
+def test_a_stack_that_is_the_only_texture_may_have_twice_max_map_size():
+    """Runtime Sampling's stack (``alone``): the probe's detail up to twice Max Map
+    Size, at most ALONE_MAX_ROWS, whose packed levels still fit the GPU's
+    16384-row texture; Fixed stays exactly Map Size, and the Hybrid's stack keeps
+    the map's bound its weights were measured at."""
+    assert sampling_runtime.stack_height((328, 6 * 328), "cube", cap=384, alone=True)[0] == 512
+    assert sampling_runtime.stack_height((600, 3600), "cube", cap=384, alone=True)[0] == 768
+    assert sampling_runtime.stack_height((600, 3600), "cube", cap=384)[0] == 384
+    assert sampling_runtime.stack_height((600, 3600), "cube", cap=128, alone=True)[0] == 256
+    rows, why = sampling_runtime.stack_height((1000, 6000), "cube", cap=1024, alone=True)
+    assert rows == sampling_runtime.ALONE_MAX_ROWS == 1024 and "at most 1024" in why
+    assert sampling_runtime.stack_height((600, 3600), "cube", fixed=384, cap=384,
+                                         alone=True)[0] == 384
+    # The packed stack at the most rows: its levels and the albedo table's slice,
+    # each padded by two rows, within 16384 rows; the next allowed height is not.
+    most = sampling_runtime.ALONE_MAX_ROWS
+    assert (sampling_atlas.level_count(most) + 1) * (most + 2) <= 16384
+    assert (sampling_atlas.level_count(1536) + 1) * (1536 + 2) > 16384
 
 
 def test_the_rows_a_power_of_two_lost_lower_the_error_against_brute_force():

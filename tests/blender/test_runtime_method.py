@@ -65,7 +65,7 @@ def test_auto_chooses_the_hybrid_only_for_an_isotropic_sampled_lobe(brushed):
     lobes the nodes cannot sample (Ward, a Principled BSDF with a coat), for a
     roughness texture and for a fixed map size too small for the runtime
     texture; a method set by hand is kept, with no reason shown; Runtime Sampling
-    for a near-mirror GGX lobe."""
+    for a near-mirror GGX or Beckmann lobe."""
     choices = brushed["choices"]
     assert choices["ggx"][0] == choices["principled"][0] == choices["beckmann"][0] == "hybrid"
     assert "Beckmann" in choices["beckmann"][1]
@@ -77,13 +77,15 @@ def test_auto_chooses_the_hybrid_only_for_an_isotropic_sampled_lobe(brushed):
     assert "ward" in choices["ward"][1]
     for label in ("ggx", "ggx_anisotropic", "beckmann", "principled"):
         assert choices[f"{label}_set"] == ["3d", ""]
-    # Near-mirror GGX (below 0.1, where the Hybrid's table has no row and Runtime
-    # Sampling measured below it: method_choice's module doc) gets Runtime Sampling,
-    # a GGX BSDF and a Principled metal alike; 0.1 itself, Beckmann and a colour
-    # texture that splits the map keep the Hybrid.
+    # Near-mirror GGX and Beckmann (below 0.1, where the Hybrid's tables have no
+    # row and Runtime Sampling measured below it: method_choice's module doc) get
+    # Runtime Sampling, a GGX BSDF, a Principled metal and a Beckmann BSDF alike;
+    # 0.1 itself and a colour texture that splits the map keep the Hybrid.
     assert choices["ggx_0.05"][0] == choices["metal_0.05"][0] == "runtime", choices
-    assert "near-mirror" in choices["ggx_0.05"][1]
-    for label in ("ggx_0.1", "beckmann_0.05", "metal_0.05_checker"):
+    assert choices["beckmann_0.05"][0] == "runtime", choices
+    assert "near-mirror GGX" in choices["ggx_0.05"][1]
+    assert "near-mirror Beckmann" in choices["beckmann_0.05"][1]
+    for label in ("ggx_0.1", "metal_0.05_checker"):
         assert choices[label][0] == "hybrid", (label, choices[label])
 
 
