@@ -291,7 +291,8 @@ def cmd_sample(args):
     cap = args.max_size or prefilter.DEFAULT_MAX_SIZE
     rows, why = sampling_runtime.stack_height(image.shape, layout, fixed=args.height, cap=cap,
                                               names=("--height", f"--max-size {cap}"),
-                                              alone=map_path is None)
+                                              alone=map_path is None and
+                                              sampling_runtime.near_mirror(lobe))
     prefilter.check_memory(rows, 2, "level stack")
     progress = None if args.quiet else LinePrinter()
     residual, lights = image, ()
@@ -709,8 +710,8 @@ def _build_parser():
                         "(default 19)")
     p.add_argument("--height", type=_positive_int, default=None,
                    help="rows of the level stack (a power of two or three times one; "
-                        "default: the probe's own detail, at most --max-size with --map, "
-                        "at most twice it, up to 1024, without)")
+                        "default: the probe's own detail, at most --max-size; for a "
+                        "near-mirror lobe without --map at most twice it, up to 1024)")
     p.add_argument("--no-lights", action="store_true",
                    help="keep the probe's small bright lights in the level stack rather "
                         "than shading them exactly")

@@ -82,6 +82,7 @@ new map and seven roughness values, 2.46% against 2.42% at 19 samples,
 2.11 / 2.10% at 61 and 1.93 / 1.93% at 127 (curve / bins).
 """
 
+import functools
 import json
 from pathlib import Path
 
@@ -89,8 +90,8 @@ import numpy as np
 
 from .errors import BakeError
 
-__all__ = ["ErrorTable", "load_table", "blend_weight", "weight_curve", "blend_curve",
-           "curve_normal_equations", "bounded_least_squares", "shade", "TABLE_PATH",
+__all__ = ["ErrorTable", "load_table", "near_mirror_alpha", "blend_weight", "weight_curve",
+           "blend_curve", "curve_normal_equations", "bounded_least_squares", "shade", "TABLE_PATH",
            "table_path"]
 
 TABLE_PATH = Path(__file__).with_name("hybrid_errors.json")
@@ -179,6 +180,17 @@ def load_table(path=None, kind="ggx") -> ErrorTable:
     except FileNotFoundError:
         raise BakeError(f"no hybrid error table at {path} (run benchmarks/hybrid.py "
                         "--write)") from None
+
+
+@functools.lru_cache(maxsize=len(KINDS))
+def near_mirror_alpha(kind="ggx") -> float:
+    """The alpha of a GGX or Beckmann lobe (``kind``) below which the lobe is a
+    near-mirror: the square of the lowest roughness the Hybrid's table of that
+    kind measured (0.1 for both). Under it the table's weights would be 0.1's,
+    taken beyond what they were measured for, so Auto bakes Runtime Sampling
+    (glossy_addon.method_choice), whose level stack may then take more rows
+    than Max Map Size (bake.sampling_runtime.stack_height)."""
+    return float(load_table(kind=kind).roughness[0]) ** 2
 
 
 def blend_weight(mu, roughness, table=None, samples=19, kind="ggx"):

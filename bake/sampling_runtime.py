@@ -118,7 +118,7 @@ from .sampling_atlas import AtlasProbe, pack_levels, stack_rows_below
 
 __all__ = ["pack", "shade", "mip_bias_for", "check", "probe_widths", "samples_of", "MODE",
            "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS",
-           "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS"]
+           "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS", "near_mirror"]
 
 MODE = "atlas_runtime"
 #: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
@@ -149,9 +149,9 @@ BIAS_BY_ALPHA = ((0.09, 0.0), (0.36, -1.0))
 #: (a slice is twice as wide as it is high) and, for an anisotropic lobe with
 #: probe lights, 2 ALBEDO_PHI + 3 rows.
 MIN_STACK_ROWS = 16
-#: Under Auto, a stack that is its bake's only texture (Runtime Sampling, not the
-#: Hybrid's second one) may have up to ALONE_CAP_FACTOR times Max Map Size's rows, at
-#: most ALONE_MAX_ROWS (:func:`stack_height`).
+#: Under Auto, a near-mirror lobe's stack that is its bake's only texture (Runtime
+#: Sampling, not the Hybrid's second one) may have up to ALONE_CAP_FACTOR times Max
+#: Map Size's rows, at most ALONE_MAX_ROWS (:func:`stack_height`, :func:`near_mirror`).
 ALONE_CAP_FACTOR = 2
 #: 1024 rows pack 10 levels and the albedo table's slice, 11 x 1026 = 11286 rows,
 #: within the GPU's 16384-row texture; 1536 would pack 11 x 1538 = 16918.
@@ -162,6 +162,20 @@ def _lobe_directions(mu, phi):
     mu, phi = np.broadcast_arrays(mu, phi)
     sin = np.sqrt(np.clip(1.0 - mu * mu, 0.0, None))
     return np.stack([sin * np.cos(phi), sin * np.sin(phi), mu], -1)
+
+
+def near_mirror(lobe) -> bool:
+    """Whether a bake.sampling.Lobe is narrower, along its narrower axis, than the
+    Hybrid's tables reach (bake.hybrid.near_mirror_alpha of its kind): the lobes
+    whose Runtime Sampling stack may pass Max Map Size (:func:`stack_height`'s
+    ``alone``). At GGX 0.1, the tables' first row, 512 rows instead of 384 moved
+    Runtime Sampling in EEVEE against Cycles by 0 to +0.2 point (city / forest
+    / interior / night / sunrise / sunset 2.2 / 3.1 / 3.5 / 4.0 / 0.4 / 2.7%
+    against stop 73's 2.2 / 2.9 / 3.4 / 3.9 / 0.4 / 2.7%), so the rows stay
+    bounded there; at 0.05 they lowered it on every HDRI measured."""
+    from .hybrid import near_mirror_alpha
+
+    return min(lobe.mx, lobe.my) < near_mirror_alpha(lobe.kind)
 
 
 def stack_height(probe_shape, layout, fixed=None, cap=None,
@@ -183,16 +197,17 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
 
     ``alone``: the stack is the bake's only texture (Runtime Sampling; not the
     Hybrid's, whose weights were measured with stacks capped at the map's
-    bound). Its cap is then ALONE_CAP_FACTOR times ``cap`` (768 rows at the
-    default Max Map Size of 384), at most ALONE_MAX_ROWS: Max Map Size bounds the
-    prefiltered map because filtering costs grow with its rows' square, while a
-    stack is the probe box-reduced (its packing grows with its texels, 0.4-0.6 s
-    at 384 rows), and a stack of 2N rows has a third of the texels of a
-    twelve-slice 3D map of N. A near-mirror lobe is what Auto gives Runtime
-    Sampling alone (glossy_addon.method_choice), and there the rows were the
+    bound) and its lobe a near-mirror (:func:`near_mirror`). Its cap is then
+    ALONE_CAP_FACTOR times ``cap`` (768 rows at the default Max Map Size of 384),
+    at most ALONE_MAX_ROWS: Max Map Size bounds the prefiltered map because
+    filtering costs grow with its rows' square, while a stack is the probe
+    box-reduced (its packing grows with its texels: 0.8 s at 384 rows and 1.3 s
+    at 512 from courtyard's 328 px probe, cold), and a stack of 2N rows has a
+    third of the texels of a twelve-slice 3D map of N. There the rows were the
     limit: in EEVEE against Cycles (courtyard.exr, 328 px probe, 19 samples)
-    Beckmann 0.05 measured 6.1% at 384 rows and 4.5% at 512 (the probe's
-    656 rows of detail, rounded down), careful native EEVEE 12.0%."""
+    Beckmann 0.05 measured 6.1% at 384 rows and 4.5% at 512 (the probe's 656
+    rows of detail, rounded down), GGX 0.05 4.3% and 2.9%; careful native EEVEE
+    12.0% and 9.6%."""
     natural = 2 * int(probe_shape[0]) if layout == "cube" else int(probe_shape[0])
     if alone and fixed is None and cap is not None:
         cap = min(ALONE_CAP_FACTOR * int(cap), ALONE_MAX_ROWS)

@@ -66,11 +66,12 @@ face = int(sys.argv[6])
 max_map = int(sys.argv[7])
 #: The runtime level stack as glossy.bake_materials makes it (operators.bake_materials.
 #: runtime_height at Auto): twice the face's rows, at most Max Map Size (the Hybrid's)
-#: or twice it (Runtime Sampling's, its only texture), a power of two or three times
+#: or twice it (Runtime Sampling's of a near-mirror lobe), a power of two or three times
 #: one (bake.sampling_runtime.stack_height).
 stack_rows = sampling_runtime.stack_height((face, 6 * face), "cube", cap=max_map)[0]
-alone_rows = sampling_runtime.stack_height((face, 6 * face), "cube", cap=max_map,
-                                           alone=True)[0]
+alone_rows = sampling_runtime.stack_height(
+    (face, 6 * face), "cube", cap=max_map,
+    alone=sampling_runtime.near_mirror(sampling_runtime.check(spec)[0]))[0]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 environment_world(scene, hdri)

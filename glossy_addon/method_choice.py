@@ -72,16 +72,15 @@ eight (benchmarks/hybrid.py --roughness 0.05 --truth bilinear). Beckmann 0.05
 / 80.3 / 29.7%, careful native 12.0 / 46.9 / 46.2%.
 
 At 384 rows both methods carried the rows' limit in courtyard (Beckmann 0.05:
-0.51x careful native). So since stop 74 Runtime Sampling's level stack, its
-only texture and not filtered, may take twice Max Map Size's rows under Auto
-(bake.sampling_runtime.stack_height, ``alone``): 512 from a 328 px probe at the
-default 384. Courtyard then measured 2.9% at GGX 0.05 and 4.5% at Beckmann
-0.05; GGX 0.05 on all eight HDRIs (city / courtyard / forest / interior /
-night / studio / sunrise / sunset) 1.2 / 2.9 / 6.8 / 3.7 / 10.7 / 2.2 / 2.1 /
-0.8%, at most 0.30x careful native (README "Stop 74").
+0.51x careful native). So since stop 74 Runtime Sampling's level stack for a
+near-mirror lobe, its only texture and not filtered, may take twice Max Map
+Size's rows under Auto (bake.sampling_runtime.stack_height, ``alone``, and
+near_mirror): 512 from a 328 px probe at the default 384. Courtyard then
+measured 2.9% at GGX 0.05 and 4.5% at Beckmann 0.05; GGX 0.05 on all eight
+HDRIs (city / courtyard / forest / interior / night / studio / sunrise /
+sunset) 1.2 / 2.9 / 6.8 / 3.7 / 10.7 / 2.2 / 2.1 / 0.8%, at most 0.30x careful
+native, Beckmann 0.05 at most 0.38x (README "Stop 74").
 """
-
-import functools
 
 import bpy
 
@@ -168,16 +167,14 @@ def knot_lights_apply(settings) -> bool:
     return not lobe.anisotropic
 
 
-@functools.lru_cache(maxsize=2)
 def near_mirror_alpha(kind="ggx") -> float:
-    """The alpha of a GGX or Beckmann lobe (``kind``) below which Auto bakes Runtime
-    Sampling rather than the Hybrid: the square of the lowest roughness the
-    Hybrid's table of that kind measured (0.1 for both), under which its weights
-    are 0.1's, taken beyond what they were measured for (module doc, "near-mirror
-    lobes")."""
-    from ..bake.hybrid import load_table
+    """The alpha below which a GGX or Beckmann lobe (``kind``) is a near-mirror and
+    Auto bakes Runtime Sampling rather than the Hybrid (bake.hybrid.near_mirror_alpha:
+    the square of the lowest roughness the Hybrid's table of that kind measured;
+    module doc, "near-mirror lobes")."""
+    from ..bake.hybrid import near_mirror_alpha as measured
 
-    return float(load_table(kind=kind).roughness[0]) ** 2
+    return measured(kind)
 
 
 def _colour_split(settings) -> bool:

@@ -239,8 +239,9 @@ class GlossyMaterialSettings(bpy.types.PropertyGroup):
         name="Map Size",
         description="Lat-long rows N (N x 2N): the size itself (Fixed) or its upper bound "
                     "(Auto; bake time grows with its square). Under Auto, Runtime "
-                    "Sampling's level stack, its only texture and not filtered, may have "
-                    "twice as many rows (at most 1024)",
+                    "Sampling's level stack for a near-mirror lobe (roughness below 0.1), "
+                    "its only texture and not filtered, may have twice as many rows (at "
+                    "most 1024)",
         default=DEFAULT_MAX_SIZE, min=0, max=1024)
     lamps: bpy.props.BoolProperty(
         name="Lamps", description="Bake separable BRDF factors (Kautz & McCool 1999) so the "

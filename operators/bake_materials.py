@@ -163,8 +163,9 @@ def _write_bake(material, path, environment, diffuse, diffuse_path, lamp_path, l
 def runtime_height(settings, probe, layout, alone=False) -> tuple:
     """(rows, why) of the runtime-sampling level stack
     (bake.sampling_runtime.stack_height): the probe's own detail, at most Map Size
-    (Auto; twice it, up to 1024, when ``alone``: Runtime Sampling, whose only
-    texture the stack is) or Map Size (Fixed), as a power of two or three times one."""
+    (Auto; twice it, up to 1024, when ``alone``: Runtime Sampling of a near-mirror
+    lobe, bake.sampling_runtime.near_mirror, whose only texture the stack is) or
+    Map Size (Fixed), as a power of two or three times one."""
     fixed = settings.map_size if settings.size_mode == "FIXED" else None
     return sampling_runtime.stack_height(probe.shape, layout, fixed=fixed,
                                          cap=settings.map_size, alone=alone)
@@ -462,7 +463,9 @@ class GLOSSY_OT_bake_materials(TimerSteps, _MaterialsOperator, bpy.types.Operato
                 0.1 if lamp_path is not None else 0.0, 0.1)
             light_note = measured if world is not None else world_note
         if sampled or (runtime_path is not None and not knot_lit):
-            rows, why = runtime_height(settings, probe, layout, alone=sampled)
+            alone = sampled and sampling_runtime.near_mirror(
+                sampling_runtime.check(spec, settings.samples)[0])
+            rows, why = runtime_height(settings, probe, layout, alone=alone)
             runtime, runtime_reason = yield from scaled_steps(background_steps(_runtime_steps(
                 spec, settings.samples, rows, why, glossy_probe, layout,
                 runtime_path is not None, lights)),

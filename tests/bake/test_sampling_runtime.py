@@ -398,8 +398,8 @@ def test_the_level_stack_keeps_max_map_size_whole():
 
 
 def test_a_stack_that_is_the_only_texture_may_have_twice_max_map_size():
-    """Runtime Sampling's stack (``alone``): the probe's detail up to twice Max Map
-    Size, at most ALONE_MAX_ROWS, whose packed levels still fit the GPU's
+    """Runtime Sampling's stack of a near-mirror lobe (``alone``): the probe's detail
+    up to twice Max Map Size, at most ALONE_MAX_ROWS, whose packed levels still fit the GPU's
     16384-row texture; Fixed stays exactly Map Size, and the Hybrid's stack keeps
     the map's bound its weights were measured at."""
     assert sampling_runtime.stack_height((328, 6 * 328), "cube", cap=384, alone=True)[0] == 512
@@ -410,6 +410,13 @@ def test_a_stack_that_is_the_only_texture_may_have_twice_max_map_size():
     assert rows == sampling_runtime.ALONE_MAX_ROWS == 1024 and "at most 1024" in why
     assert sampling_runtime.stack_height((600, 3600), "cube", fixed=384, cap=384,
                                          alone=True)[0] == 384
+    # Only a near-mirror lobe's stack (narrower than the Hybrid tables' first row,
+    # GGX or Beckmann 0.1) passes the cap: at GGX 0.1 the rows did not help.
+    near = [sampling_runtime.near_mirror(sampling_runtime.check(spec)[0]) for spec in (
+        "ggx:roughness=0.05", "beckmann:roughness=0.05", "ggx:roughness=0.1",
+        "beckmann:roughness=0.1", "ggx:roughness=0.3,anisotropy=0.8",
+        "ggx:roughness=0.1,anisotropy=0.8")]
+    assert near == [True, True, False, False, False, True]
     # The packed stack at the most rows: its levels and the albedo table's slice,
     # each padded by two rows, within 16384 rows; the next allowed height is not.
     most = sampling_runtime.ALONE_MAX_ROWS
