@@ -28,6 +28,7 @@ it): a handful says a highlight's edge decides, not the surface.
         [--case auto:0.3:0:19:Metallic=0 ...]   (a From Material Principled BSDF)
         [--rotate 20,0,135] [--strength 2]   (the world turned by a Mapping node)
         [--max-map-size 768]   (every material's Max Map Size, Auto's bound)
+        [--keep]   (keep each case's work folder: bakes, renders, report EXRs)
 """
 
 import argparse
@@ -99,6 +100,9 @@ def main():
                         help="every material's Max Map Size (default: the add-on's, 384)")
     parser.add_argument("--case", action="append",
                         help="method:roughness:anisotropy:samples (repeatable)")
+    parser.add_argument("--keep", action="store_true",
+                        help="keep each case's work folder (bakes, renders, the validation "
+                             "report's EXRs) and print its path")
     args = parser.parse_args()
     hdris = args.hdri or sorted(p.stem for p in studio_lights().glob("*.exr"))
     script = ROOT / "tests" / "blender" / "scripts" / "runtime_validate.py"
@@ -141,7 +145,10 @@ def main():
                       flush=True)
                 continue
             images_of[(hdri, case)] = report_images(work)
-            shutil.rmtree(work, ignore_errors=True)  # renders and bakes, up to 30 MB a case
+            if args.keep:
+                print(f"  (kept: {work})", flush=True)
+            else:
+                shutil.rmtree(work, ignore_errors=True)  # renders and bakes, up to 30 MB a case
             figures_of[(hdri, case)] = figures
             rms = {k: v["relative_rms"] for k, v in figures["methods"].items()}
             face = re.search(r"(\d+) px", result["S"].get("probe_reason", ""))
