@@ -305,8 +305,7 @@ def cmd_sample(args):
     report(progress, 0.1, f"pre-blurring {rows}-row probe levels and the albedo table")
     atlas, atlas_meta = sampling_runtime.pack(residual, model.spec, layout=layout,
                                               budget=args.samples, height=rows, lights=lights)
-    reason = (f"runtime sampling: {len(atlas_meta['prob'])} samples over "
-              f"{atlas_meta['levels']} levels of {rows} rows ({why})")
+    reason = f"runtime sampling: {sampling_runtime.stack_reason(atlas_meta, why)}"
     if not args.no_lights:
         reason += f"; {probe_lights.describe(lights)}"
     baked = None

@@ -66,7 +66,8 @@ def level_count(rows: int) -> int:
     return count
 
 
-def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None, base=None):
+def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None, base=None,
+                first=0):
     """(atlas, meta) of a probe's pre-blurred levels (see the module doc).
 
     probe: (H, W, 3) in ``layout``; height: the lat-long rows (default: twice a
@@ -74,6 +75,14 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None,
     base: the probe already converted to ``height`` lat-long rows
     (bake.envmap.convert with its own sub-samples: bake.probe_maps.ProbeMaps.plain),
     or None to convert it here.
+    first: how many of the finest levels to leave out (a lobe whose lookups never
+    read them: bake.sampling_runtime.finest_level). The chain is still made from
+    ``height`` rows, so the levels kept are those of the whole stack; the first
+    kept is stored as it is (height / 2^first rows, ``meta["slice_height"]``) and
+    the coarser ones sampled back at its texels, so a lookup at level l of the
+    whole stack is one at l - first of this one (the lat-long texel's solid angle
+    grows by 4^first with the rows). ``meta["first_level"]`` records it and
+    ``meta["stack_rows"]`` the whole stack's rows.
     """
     layout_obj = get_layout(layout)
     probe = layout_obj.check_image(probe)[..., :3].astype(np.float32)
@@ -96,13 +105,18 @@ def pack_levels(probe, layout="cube", height=None, filter="gauss4", levels=None,
     count = most if levels is None else int(levels)
     if not 1 <= count <= most:
         raise BakeError(f"levels must lie in 1..{most} for height {height}, not {levels!r}")
+    first = int(first)
+    if not 0 <= first < count:
+        raise BakeError(f"first must lie in 0..{count - 1} for {count} levels, not {first!r}")
     chain = pyramid(base, "latlong", filter, levels=count)
-    slices = [base] + [latlong.upsampled(level[..., :3], height) for level in chain[1:]]
+    rows = height >> first
+    kept = chain[first][..., :3]
+    slices = [kept] + [latlong.upsampled(level[..., :3], rows) for level in chain[first + 1:]]
     atlas = np.concatenate([_pad(level) for level in slices], axis=0)
     atlas = np.concatenate([atlas, np.zeros((atlas.shape[0], 1, 3), np.float32)], axis=1)
-    meta = {"mode": MODE, "slices": len(slices), "slice_height": height,
-            "slice_width": 2 * height, "filter": filter, "mu": [0.0] * len(slices),
-            "offsets": [0.0] * len(slices)}
+    meta = {"mode": MODE, "slices": len(slices), "slice_height": rows,
+            "slice_width": 2 * rows, "filter": filter, "mu": [0.0] * len(slices),
+            "offsets": [0.0] * len(slices), "first_level": first, "stack_rows": height}
     return atlas.astype(np.float32), meta
 
 

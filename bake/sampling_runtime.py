@@ -111,14 +111,22 @@ from .brdf.microfacet import (
     ggx_lambda,
     sample_ggx_vndf,
 )
+from .envmap import get_layout
 from .errors import BakeError
 from .probe_maps import probe_maps
 from .sampling import DEFAULTS, lobe_of, pattern_for_budget
-from .sampling_atlas import AtlasProbe, pack_levels, stack_rows_below
+from .sampling_atlas import (
+    AtlasProbe,
+    is_stack_height,
+    level_count,
+    pack_levels,
+    stack_rows_below,
+)
 
 __all__ = ["pack", "shade", "mip_bias_for", "check", "probe_widths", "samples_of", "MODE",
            "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS",
-           "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS", "near_mirror"]
+           "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS", "near_mirror", "finest_level",
+           "stack_reason"]
 
 MODE = "atlas_runtime"
 #: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
@@ -226,6 +234,45 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
         rows, why = MIN_STACK_ROWS, f"{why}, raised to {MIN_STACK_ROWS}, the least that " \
                                     f"holds the albedo table"
     return rows, why
+
+
+def finest_level(ax, ay, prob, height, bias) -> int:
+    """The finest level (0 the stack's base of ``height`` lat-long rows) that any
+    lookup of :func:`shade` (and the nodes) can read for a lobe of alphas ``ax``,
+    ``ay``, pattern cell probabilities ``prob`` (S,) and MIP ``bias``: the floor of
+    a lower bound of level_j = 1/2 log2(Omega_j / Omega_t) + bias over every
+    sample, view and direction, at least 0.
+
+    Omega_j = prob_j 4 wo_z / (G1(wo) D(h_j)) (the GGX proposal's, for Beckmann
+    too) is at least min(prob) times min over wo of 4 wo_z (1 + Lambda(wo)),
+    which is 2 (z + sqrt(z^2 + a^2 (1 - z^2))) at wo_z = z along an azimuth
+    where the projected alpha is a (ax <= a <= ay), evaluated on z in
+    [MIN_COS, 1] at the smaller alpha (it grows with a), over GGX's largest D,
+    1 / (pi ax ay) at h = n. Omega_t, the lat-long texel's solid angle, is at
+    most (pi / H)(2 pi / W) (at the equator). The bound is reached only at the
+    silhouette (wo_z = MIN_COS, where G1 is smallest) by the smallest cell at
+    the lobe's peak: GGX 0.6 (alpha 0.36, bias -1, 19 samples) never reads
+    finer than level 2 of a 256-row stack, GGX 1 than level 4, GGX 0.3 reads
+    level 0."""
+    ax, ay = float(ax), float(ay)
+    low = min(ax, ay)
+    z = np.linspace(MIN_COS / np.sqrt(1.0 + MIN_COS ** 2), 1.0, 4097)
+    least_view = float(np.min(2.0 * (z + np.sqrt(z * z + low * low * (1.0 - z * z)))))
+    omega = float(np.min(prob)) * least_view * np.pi * ax * ay
+    texel = (np.pi / height) * (2.0 * np.pi / (2 * height))
+    bound = 0.5 * np.log2(omega / texel) + float(bias)
+    return max(0, int(np.floor(bound - 1e-3)))  # the margin: float32 in the nodes
+
+
+def stack_reason(meta, why) -> str:
+    """The panel's and the command line's words for a runtime texture's level stack
+    (``meta`` from :func:`pack`; ``why``: :func:`stack_height`'s reason)."""
+    rows, first = int(meta["slice_height"]), int(meta.get("first_level", 0))
+    text = f"{len(meta['prob'])} samples over {meta['levels']} levels of {rows} rows ({why}"
+    if first:
+        text += (f"; the lobe reads no level finer than {first} of "
+                 f"{int(meta['stack_rows'])} rows, so the stack starts there")
+    return text + ")"
 
 
 def check(spec, budget=19):
@@ -377,12 +424,33 @@ def mip_bias_for(ax, ay=None) -> float:
     return float(b0 + (b1 - b0) * min(max(t, 0.0), 1.0))
 
 
+def _extras_fit(height, count_phi, samples, lights, per) -> bool:
+    """Whether the extra slice of a stack of ``height`` rows (width 2 height) holds
+    the albedo table (``count_phi`` rows, twice with lights), ``samples`` samples
+    and ``lights`` lights at ``per`` texels each (:func:`pack`'s layout)."""
+    width = 2 * height
+    light_rows = count_phi if lights else 0
+    first = count_phi + light_rows + 2
+    light_first = first + -(-samples // width) + 1
+    return (ALBEDO_MU <= width and count_phi <= height
+            and (not lights or 2 * count_phi + 3 <= height + 1)
+            and first + -(-samples // width) <= height + 1
+            and (not lights or light_first + -(-per * lights // width) <= height + 1))
+
+
 def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi0=None,
          bias=None, pattern="auto", lights=()):
     """(atlas, meta) of a probe for runtime sampling of BRDF ``spec`` (module doc).
 
     probe (H, W, 3) in ``layout``; budget: samples per pixel (the pattern with the
     closest count); height: the level stack's lat-long rows (bake.sampling_atlas).
+    The levels finer than the lobe's lookups can read (:func:`finest_level`) are
+    left out: the texture then holds the stack from its level ``meta["first_level"]``,
+    of height / 2^first_level rows (``meta["slice_height"]``; ``meta["stack_rows"]``
+    is ``height``), and every lookup reads what it read in the whole stack, the
+    lat-long texel's solid angle scaling the level by exactly first_level
+    (bake.sampling_atlas.pack_levels). GGX 0.6 from a 256-row stack: 6 levels of 64
+    rows instead of 8 of 256, about 1/20 of the texels.
     lights: bake.probe_lights.Light's taken out of ``probe`` (then the residual),
     shaded exactly by :func:`shade` and the nodes; kept in ``meta["lights"]``.
     bias: the lookups' MIP bias (None: :func:`mip_bias_for` the lobe).
@@ -396,15 +464,37 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     # The level stack depends on the probe alone: made once for all its materials.
     # A residual's (bake.probe_maps.residual_maps) conversion is its probe's, recomputed
     # near its lights only.
+    if pattern == "auto":
+        pattern = "stretched" if lobe.anisotropic else "regular"
+    if pattern == "stretched":
+        points, prob = stretched_pattern(len(plan), max(lobe.mx, lobe.my) /
+                                         min(lobe.mx, lobe.my))
+    else:
+        points = plan.points / plan.edge
+        prob = plan.cells / (np.pi * plan.edge ** 2)
+    count_phi = ALBEDO_PHI if lobe.anisotropic else 1
+    # The levels finer than any lookup reads are left out (finest_level), as long as
+    # the extra slice still holds everything at LIGHT_TEXELS texels a light.
+    rows = height
+    if rows is None:
+        rows = 2 * int(np.asarray(probe).shape[0]) if get_layout(layout).name == "cube" \
+            else int(np.asarray(probe).shape[0])
+    first = 0
+    if is_stack_height(rows):
+        for trim in range(finest_level(lobe.mx, lobe.my, prob, rows, bias), 0, -1):
+            if rows >> trim >= MIN_STACK_ROWS and trim < level_count(rows) and _extras_fit(
+                    rows >> trim, count_phi, len(prob), len(lights), LIGHT_TEXELS):
+                first = trim
+                break
     maps = probe_maps(probe, layout)
     levels, meta = maps.kept(
-        ("runtime levels", height, filter), lambda: pack_levels(
+        ("runtime levels", height, filter, first), lambda: pack_levels(
             probe, layout, height, filter,
             base=maps.plain(height) if height is not None and layout in ("cube", "latlong")
-            and not (layout == "latlong" and np.asarray(probe).shape[0] == height) else None))
+            and not (layout == "latlong" and np.asarray(probe).shape[0] == height) else None,
+            first=first))
     meta = dict(meta)
     height, width = meta["slice_height"], meta["slice_width"]
-    count_phi = ALBEDO_PHI if lobe.anisotropic else 1
     if ALBEDO_MU > width or count_phi > height:
         raise BakeError(f"the level stack ({height} rows) is too small for the albedo table")
     mu = MIN_COS + (1.0 - MIN_COS) * np.linspace(0.0, 1.0, ALBEDO_MU)  # wo_z >= MIN_COS
@@ -426,14 +516,6 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         ratio = table / np.maximum(single_scatter_albedo(
             wo_lobe, lobe.mx, lobe.my, kind=lobe.kind), 1e-6)[..., None].astype(np.float32)
         extra_padded[1 + count_phi:1 + 2 * count_phi, 1:1 + ALBEDO_MU] = ratio
-    if pattern == "auto":
-        pattern = "stretched" if lobe.anisotropic else "regular"
-    if pattern == "stretched":
-        points, prob = stretched_pattern(len(plan), max(lobe.mx, lobe.my) /
-                                         min(lobe.mx, lobe.my))
-    else:
-        points = plan.points / plan.edge
-        prob = plan.cells / (np.pi * plan.edge ** 2)
     # Padded rows of the extra slice: rho, the lights' scale (with lights), one
     # empty, the samples.
     first = count_phi + light_rows + 2
@@ -593,7 +675,7 @@ def _footprints(wo, disk, turn, prob, omega, ax, ay, wi):
 
 
 def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.8), taps=1,
-          spread=None):
+          spread=None, levels_read=None):
     """(N, 3) radiance the runtime-sampling nodes compute for world-space unit
     normals, views (surface to viewer) and tangents (N, 3) each (tangents None:
     bake.reference's hint frame).
@@ -613,7 +695,12 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
     (the figures above were measured so); turning them once only measured
     worse (14 samples, 128 px probe, 4 lookups: night 0.145 -> 0.270), and
     with 52 or more samples the taps cost more than they gain, so the
-    footprint model is not yet one to carry into the nodes."""
+    footprint model is not yet one to carry into the nodes.
+
+    ``spread`` and ``levels_read``: lists to which the weighted spread of the
+    samples' luminance (B,) about their mean, and the levels the valid samples
+    compute before the clamp to the stack (1-D, this stack's levels), are
+    appended (for measurements and tests)."""
     from .reference import _frames, pixel_arrays
 
     if meta.get("mode") != MODE:
@@ -672,6 +759,8 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
         with np.errstate(divide="ignore", invalid="ignore"):
             level = 0.5 * np.log2(np.where(valid, omega / count, 1.0) /
                                   probe.texel_solid_angle(direction)) + float(meta["bias"])
+        if levels_read is not None:
+            levels_read.append(level[valid & (tap < count)])
         level = np.clip(np.where(valid, level, 0.0), 0.0, probe.count - 1)
         low = np.floor(level).astype(int)
         high = np.minimum(low + 1, probe.count - 1)

@@ -218,8 +218,7 @@ def _runtime_steps(spec, samples, rows, why, probe, layout, for_hybrid, lights=(
                                                samples=len(meta["prob"]),
                                                kind=meta.get("kind", "ggx"))
         meta.update({"blend_mu": centres.tolist(), "blend_weight": weights.tolist()})
-    reason = (f"runtime sampling: {len(meta['prob'])} samples over {meta['levels']} levels of "
-              f"{rows} rows ({why})")
+    reason = f"runtime sampling: {sampling_runtime.stack_reason(meta, why)}"
     if lights:
         reason += f"; {probe_lights.describe(lights)}"
     return (image, meta), reason

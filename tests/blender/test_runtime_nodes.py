@@ -95,3 +95,19 @@ def test_knot_lights_nodes_match_the_numpy_twin_at_every_pixel_s_roughness(tmp_p
     assert result["median"] < 3e-3
     assert result["p99"] < 2e-2
     assert result["max"] < 5e-2
+
+
+def test_runtime_nodes_match_the_numpy_twin_on_a_stack_without_its_finest_levels(
+        tmp_path, hdri_dir):
+    """GGX 1 reads no level finer than 1 of the 32-row stack of a 16 px probe
+    (bake.sampling_runtime.finest_level): its texture holds the stack from
+    there, 16 rows, and the nodes, which take the texel's solid angle from the
+    stored rows, read the same levels the twin does, to the half-float
+    tolerances of the tests above."""
+    result = run_script("runtime_render.py", ROOT, tmp_path, hdri_dir / "forest.exr",
+                        "ggx:roughness=1", tmp_path / "r.json")
+    assert (result["first_level"], result["slice_height"]) == (1, 16)
+    assert result["mean_value"] > 0.1
+    assert result["median"] < 3e-3
+    assert result["p99"] < 2e-2
+    assert result["max"] < 5e-2

@@ -88,7 +88,8 @@ with open(result_path, "w") as handle:
     json.dump({"pixels": int(on_sphere.sum()), "median": float(np.median(relative)),
                "p99": float(np.percentile(relative, 99)), "max": float(relative.max()),
                "mean_value": float(np.mean(predicted)), "graphs": graphs,
-               "lights": len(lights),
+               "lights": len(lights), "first_level": int(meta.get("first_level", 0)),
+               "slice_height": int(meta["slice_height"]),
                "light_share": float(1.0 - np.mean(unlit) / np.mean(predicted)),
                "light_peak": float(np.max((predicted - unlit) @ [0.2126, 0.7152, 0.0722]))},
               handle, indent=1)
