@@ -6,14 +6,15 @@ a MIP pyramid with a level-of-detail lookup; shader nodes have neither. This
 module fixes what a material carries instead, in one texture and its metadata,
 and :func:`shade` is exactly the arithmetic the node groups will do:
 
-The texture (``pack``): bake.sampling_atlas's level stack (L slices of the
-probe's pre-blurred lat-long levels, each (H + 2, W + 3)) and one more padded
-slice whose texels (row 1 + l, column 1 + k) hold the directional albedo
+The texture (``pack``): bake.sampling_atlas's level stack (the probe's
+pre-blurred lat-long levels, each at its own size, one below the other: its
+"mip" layout, W + 3 texels wide) and below it a block of rows whose texels
+(row ``table_row`` + l, column 1 + k) hold the directional albedo
 rho(mu_k, phi_l) (RGB) at mu_k = m + (1 - m) k / (M - 1) (m = MIN_COS) and
 phi_l = (pi / 2) l / (P - 1) of the view's azimuth in the lobe frame folded
 into [0, pi / 2] (the GGX lobe is symmetric under both mirror axes); P = 1 for
 isotropic lobes. With probe lights (below), the next P rows hold the lights'
-scale rho / A_ss on the same grid. The same slice holds the pattern, one
+scale rho / A_ss on the same grid. The same block holds the pattern, one
 sample per texel (p1, p2, prob_j as RGB) from atlas row ``sample_row`` (meta),
 column 1 + j mod W, row + j div W, so that the nodes read sample j in a loop
 (a repeat zone whose shader compiles once, whatever the sample count) rather
@@ -24,11 +25,15 @@ what the rounding left of the direction), read by the nodes in a loop too.
 The direction is split so that a half-float atlas (the bake writes one
 whenever its values fit) keeps it to about 1e-7 rad: whole, a half float
 moves it by up to 5e-4 rad, which moved the runtime estimate by 1.5% (relative
-RMS, night.exr, GGX 0.1) and 8% (GGX 0.05) on a 48 px sphere. An atlas
-packed before stop 58 has no ``meta["light_texels"]`` and three texels per
-light (the direction whole); its readers take it so. A stack too small for
-four texels per light keeps three, the direction whole (``meta["light_texels"]``
-3): a wide lobe's, whose texels (11 degrees at 16 rows) dwarf 5e-4 rad.
+RMS, night.exr, GGX 0.1) and 8% (GGX 0.05) on a 48 px sphere. The block has
+as many rows as it needs (``meta["atlas_rows"]`` is the atlas's).
+
+Atlases packed before stop 75 hold every level at the base's size and the
+table in one more slice of H + 2 rows (no ``meta["level_layout"]``,
+``table_row`` or ``atlas_rows``: :func:`table_row`, :func:`atlas_rows`); there a
+stack too small for four texels per light kept three, the direction whole
+(``meta["light_texels"]`` 3), and an atlas packed before stop 58 has no
+``meta["light_texels"]`` and three texels per light. Their readers take them so.
 
 Probe lights (``pack(..., lights=)``, bake.probe_lights): the level stack is
 then of the probe without its small bright lights (and the tiles of its wide
@@ -104,7 +109,6 @@ render_regular besides the texture's lat-long levels and the tabulated albedo.
 import numpy as np
 
 from . import brdf, probe_lights
-from .atlas import _lookup, _pad
 from .brdf.microfacet import (
     beckmann_lambda_cycles,
     ggx_d,
@@ -119,6 +123,7 @@ from .sampling_atlas import (
     AtlasProbe,
     is_stack_height,
     level_count,
+    level_lookup,
     pack_levels,
     stack_rows_below,
 )
@@ -126,7 +131,7 @@ from .sampling_atlas import (
 __all__ = ["pack", "shade", "mip_bias_for", "check", "probe_widths", "samples_of", "MODE",
            "ALBEDO_MU", "ALBEDO_PHI", "stack_height", "MIN_STACK_ROWS",
            "ALONE_CAP_FACTOR", "ALONE_MAX_ROWS", "near_mirror", "finest_level",
-           "stack_reason"]
+           "stack_reason", "table_row", "atlas_rows"]
 
 MODE = "atlas_runtime"
 #: Lobes the nodes sample: GGX's visible normals, and Beckmann's through them (its
@@ -161,8 +166,10 @@ MIN_STACK_ROWS = 16
 #: Sampling, not the Hybrid's second one) may have up to ALONE_CAP_FACTOR times Max
 #: Map Size's rows, at most ALONE_MAX_ROWS (:func:`stack_height`, :func:`near_mirror`).
 ALONE_CAP_FACTOR = 2
-#: 1024 rows pack 10 levels and the albedo table's slice, 11 x 1026 = 11286 rows,
-#: within the GPU's 16384-row texture; 1536 would pack 11 x 1538 = 16918.
+#: Chosen when every level was stored at the base's size (1024 rows packed 11 x 1026 =
+#: 11286 rows, within the GPU's 16384; 1536 would have packed 16918). Since stop 75's
+#: "mip" layout a 1024-row stack is about 2070 rows by 2051 texels, so the GPU allows
+#: more; larger stacks were not measured.
 ALONE_MAX_ROWS = 1024
 
 
@@ -424,20 +431,6 @@ def mip_bias_for(ax, ay=None) -> float:
     return float(b0 + (b1 - b0) * min(max(t, 0.0), 1.0))
 
 
-def _extras_fit(height, count_phi, samples, lights, per) -> bool:
-    """Whether the extra slice of a stack of ``height`` rows (width 2 height) holds
-    the albedo table (``count_phi`` rows, twice with lights), ``samples`` samples
-    and ``lights`` lights at ``per`` texels each (:func:`pack`'s layout)."""
-    width = 2 * height
-    light_rows = count_phi if lights else 0
-    first = count_phi + light_rows + 2
-    light_first = first + -(-samples // width) + 1
-    return (ALBEDO_MU <= width and count_phi <= height
-            and (not lights or 2 * count_phi + 3 <= height + 1)
-            and first + -(-samples // width) <= height + 1
-            and (not lights or light_first + -(-per * lights // width) <= height + 1))
-
-
 def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi0=None,
          bias=None, pattern="auto", lights=()):
     """(atlas, meta) of a probe for runtime sampling of BRDF ``spec`` (module doc).
@@ -473,8 +466,8 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         points = plan.points / plan.edge
         prob = plan.cells / (np.pi * plan.edge ** 2)
     count_phi = ALBEDO_PHI if lobe.anisotropic else 1
-    # The levels finer than any lookup reads are left out (finest_level), as long as
-    # the extra slice still holds everything at LIGHT_TEXELS texels a light.
+    # The levels finer than any lookup reads are left out (finest_level), down to
+    # MIN_STACK_ROWS (the albedo table's width).
     rows = height
     if rows is None:
         rows = 2 * int(np.asarray(probe).shape[0]) if get_layout(layout).name == "cube" \
@@ -482,8 +475,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     first = 0
     if is_stack_height(rows):
         for trim in range(finest_level(lobe.mx, lobe.my, prob, rows, bias), 0, -1):
-            if rows >> trim >= MIN_STACK_ROWS and trim < level_count(rows) and _extras_fit(
-                    rows >> trim, count_phi, len(prob), len(lights), LIGHT_TEXELS):
+            if rows >> trim >= MIN_STACK_ROWS and trim < level_count(rows):
                 first = trim
                 break
     maps = probe_maps(probe, layout)
@@ -495,7 +487,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
             first=first))
     meta = dict(meta)
     height, width = meta["slice_height"], meta["slice_width"]
-    if ALBEDO_MU > width or count_phi > height:
+    if ALBEDO_MU > width:
         raise BakeError(f"the level stack ({height} rows) is too small for the albedo table")
     mu = MIN_COS + (1.0 - MIN_COS) * np.linspace(0.0, 1.0, ALBEDO_MU)  # wo_z >= MIN_COS
     phi = np.linspace(0.0, 0.5 * np.pi, count_phi) if count_phi > 1 else np.zeros(1)
@@ -504,43 +496,30 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     wo_model = np.stack([cos_a * wo_lobe[..., 0] - sin_a * wo_lobe[..., 1],
                          sin_a * wo_lobe[..., 0] + cos_a * wo_lobe[..., 1], wo_lobe[..., 2]], -1)
     table = model.albedo(wo_model, samples=ALBEDO_SAMPLES).astype(np.float32)  # (P, M, 3)
-    extra = np.zeros((height, width, 3), np.float32)
-    extra[:count_phi, :ALBEDO_MU] = table
-    extra_padded = np.concatenate([_pad(extra), np.zeros((height + 2, 1, 3), np.float32)], 1)
-    extra_padded[1:1 + count_phi, 1:1 + ALBEDO_MU] = table  # exact, not the padding's means
+    # The table block below the levels, as wide as the atlas: one empty row, rho (P
+    # rows from column 1), the lights' scale rho / A_ss (light_radiance) in the P
+    # rows after it (with lights), one empty, the samples, one empty, the lights at
+    # LIGHT_TEXELS texels each (light_texels), and one empty row.
     light_rows = count_phi if lights else 0
-    if light_rows:  # the lights' scale rho / A_ss (light_radiance), in the rows after rho's
-        if 2 * count_phi + 3 > height + 1:
-            raise BakeError(f"the level stack ({height} rows) is too small for the albedo "
-                            f"tables of a probe with lights: raise the map size")
+    first_sample = count_phi + light_rows + 2
+    sample_rows = -(-len(prob) // width)
+    light_first = first_sample + sample_rows + 1
+    block_rows = (light_first + -(-LIGHT_TEXELS * len(lights) // width) if lights
+                  else first_sample + sample_rows) + 1
+    block = np.zeros((block_rows, levels.shape[1], 3), np.float32)
+    block[1:1 + count_phi, 1:1 + ALBEDO_MU] = table
+    if light_rows:
         ratio = table / np.maximum(single_scatter_albedo(
             wo_lobe, lobe.mx, lobe.my, kind=lobe.kind), 1e-6)[..., None].astype(np.float32)
-        extra_padded[1 + count_phi:1 + 2 * count_phi, 1:1 + ALBEDO_MU] = ratio
-    # Padded rows of the extra slice: rho, the lights' scale (with lights), one
-    # empty, the samples.
-    first = count_phi + light_rows + 2
-    sample_rows = -(-len(prob) // width)
-    # Then one empty row and the lights, LIGHT_TEXELS texels each (light_texels); in a
-    # stack too small for that (a wide lobe's: 16 rows of 11-degree texels, where the
-    # half float's 5e-4 rad does not matter), LIGHT_TEXELS_BEFORE, the direction whole.
-    light_first = first + sample_rows + 1
-    per = LIGHT_TEXELS
-    if lights and light_first + -(-per * len(lights) // width) > height + 1:
-        per = LIGHT_TEXELS_BEFORE
-    if first + sample_rows > height + 1 or (
-            lights and light_first + -(-per * len(lights) // width) > height + 1):
-        raise BakeError(f"the level stack ({height} rows) is too small for {len(prob)} samples"
-                        + (f" and {len(lights)} lights" if lights else ""))
+        block[1 + count_phi:1 + 2 * count_phi, 1:1 + ALBEDO_MU] = ratio
     for j, ((p1, p2), q) in enumerate(zip(points, prob, strict=True)):
-        extra_padded[first + j // width, 1 + j % width] = (p1, p2, q)
+        block[first_sample + j // width, 1 + j % width] = (p1, p2, q)
     for j, texels in enumerate(light_texels(lights, lobe.mx, lobe.my)):
-        if per == LIGHT_TEXELS_BEFORE:
-            whole = tuple(np.add(texels[0], texels[3]))
-            texels = (whole, texels[1], texels[2])
         for c, value in enumerate(texels):
-            t = per * j + c
-            extra_padded[light_first + t // width, 1 + t % width] = value
-    atlas = np.concatenate([levels, extra_padded], axis=0)
+            t = LIGHT_TEXELS * j + c
+            block[light_first + t // width, 1 + t % width] = value
+    atlas = np.concatenate([levels, block], axis=0)
+    below = int(meta["atlas_rows"])  # the levels' rows
     meta.update({
         "mode": MODE, "levels": meta["slices"], "slices": meta["slices"] + 1,
         "mu": [0.0] * (meta["slices"] + 1), "offsets": [0.0] * (meta["slices"] + 1),
@@ -548,18 +527,33 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
         "angle": float(lobe.angle), "xi0": xi0, "bias": bias, "budget": int(budget),
         "spacing": plan.spacing, "circles": len(plan.radii),
         "disk": points.tolist(), "prob": prob.tolist(), "pattern": pattern,
-        "sample_row": int(meta["slices"] * (height + 2) + first),
-        "light_row": int(meta["slices"] * (height + 2) + light_first),
+        "table_row": below + 1, "sample_row": below + first_sample,
+        "light_row": below + light_first, "atlas_rows": int(atlas.shape[0]),
         "albedo_mu": ALBEDO_MU, "albedo_phi": count_phi, "min_cos": MIN_COS,
-        "light_texels": per, "lights": [light.to_json() for light in lights]})
-    return atlas.astype(np.float32), meta
+        "light_texels": LIGHT_TEXELS, "lights": [light.to_json() for light in lights]})
+    return atlas, meta
+
+
+def table_row(meta) -> int:
+    """The atlas row of the albedo table's first entry (rho at phi 0): below the
+    levels ("mip" layout), or row 1 of the last slice (an atlas packed before stop 75,
+    every level H + 2 rows)."""
+    if "table_row" in meta:
+        return int(meta["table_row"])
+    return int(meta["levels"]) * (int(meta["slice_height"]) + 2) + 1
+
+
+def atlas_rows(meta) -> int:
+    """The rows of a runtime or level atlas (``meta["atlas_rows"]``, or the slices of
+    H + 2 rows an atlas packed before stop 75 has)."""
+    return int(meta.get("atlas_rows") or int(meta["slices"]) * (int(meta["slice_height"]) + 2))
 
 
 def _albedo(atlas, meta, wo, table=0):
     """rho (B, 3) from the table at lobe-frame views wo (B, 3), bilinear as the nodes;
     ``table`` 1: the lights' scale rho / A_ss (the rows after rho's)."""
     count_mu, count_phi = int(meta["albedo_mu"]), int(meta["albedo_phi"])
-    base = int(meta["levels"]) * (int(meta["slice_height"]) + 2) + 1 + table * count_phi
+    base = table_row(meta) + table * count_phi
     x = np.clip((wo[:, 2] - MIN_COS) / (1.0 - MIN_COS), 0.0, 1.0) * (count_mu - 1)
     x0 = np.minimum(np.floor(x), count_mu - 2)
     fx = (x - x0)[:, None]
@@ -765,8 +759,8 @@ def shade(atlas, meta, normals, views, tangents=None, tangent_hint=(0.3, 0.5, 0.
         low = np.floor(level).astype(int)
         high = np.minimum(low + 1, probe.count - 1)
         frac = (level - low)[..., None]
-        value = (_lookup(atlas, meta, low, direction) * (1.0 - frac)
-                 + _lookup(atlas, meta, high, direction) * frac)
+        value = (level_lookup(atlas, meta, low, direction) * (1.0 - frac)
+                 + level_lookup(atlas, meta, high, direction) * frac)
         radiance = radiance + np.where((tap < count)[..., None], value / count[..., None], 0.0)
     total = weight.sum(axis=1, keepdims=True)
     mean = np.sum(weight[..., None] * radiance, axis=1) / np.where(total > 0, total, 1.0)

@@ -6,7 +6,8 @@ visible-normal sampler; per sample, one shared group (``Glossy VNDF Sample v3``)
 turns the sample's disk point into a world direction, its weight and its MIP
 level. The material holds what node groups cannot: the image taps (the
 sample's constants from its texel, four Closest taps per stored level, bilinear
-weights from ``Glossy Atlas Taps v1``, two levels per sample) inside two
+weights from ``Glossy Atlas Taps v1`` fed each level's own rows and first row,
+bake.sampling_atlas's "mip" layout: :func:`_level_sizes`; two levels per sample) inside two
 repeat zones over the samples (the strongest weight, then the kept sum),
 normalised and scaled by the tabulated albedo. EEVEE compiles a repeat zone as
 a loop: the shader's size and compile time do not grow with the sample count
@@ -24,7 +25,7 @@ import math
 
 import bpy
 
-from ..bake.sampling_runtime import LIGHT_WIDENING, MIN_COS
+from ..bake.sampling_runtime import LIGHT_WIDENING, MIN_COS, atlas_rows, table_row
 from .nodes import _Builder, _group, _group_node, _io, _tap, atlas_taps_group
 
 GROUP_VERSION = 3
@@ -360,8 +361,8 @@ def _texel(b, image, meta, first_row, index):
     """The atlas texel (colour socket) number ``index`` (a socket) of a run of texels
     from row ``first_row``: row first_row + index div W, column 1 + index mod W
     (bake.sampling_runtime's layout of samples and lights)."""
-    height, width = int(meta["slice_height"]), int(meta["slice_width"])
-    rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
+    width = int(meta["slice_width"])
+    rows, cols = float(atlas_rows(meta)), float(width + 3)
     row = b.math("ADD", b.math("FLOOR", b.math("DIVIDE", b.math("ADD", index, 0.5), width)),
                  first_row + 0.5)
     column = b.math("ADD", b.math("FLOORED_MODULO", index, float(width)), 1.5)
@@ -480,8 +481,8 @@ def runtime_parts(b, image, meta, normal, view, tangent):
     values = []
     for k in (low, high):
         taps = _group_node(b, atlas_taps_group(), {
-            "Normal": out["Direction"], "Incoming": out["Direction"], "K": k, "Offset": 0.0,
-            **sizes})
+            "Normal": out["Direction"], "Incoming": out["Direction"], "Offset": 0.0,
+            **_level_sizes(b, meta, k, sizes)})
         top = b.mix(taps["FX"], _tap(b, taps["UV00"], image), _tap(b, taps["UV01"], image))
         bottom = b.mix(taps["FX"], _tap(b, taps["UV10"], image), _tap(b, taps["UV11"], image))
         values.append(b.mix(taps["FY"], top, bottom))
@@ -497,13 +498,36 @@ def runtime_parts(b, image, meta, normal, view, tangent):
             _lights_value(b, image, meta, frame))
 
 
+def _level_sizes(b, meta, k, sizes):
+    """The ``Glossy Atlas Taps`` inputs that read whole level ``k`` (a socket) of the
+    level stack: ``sizes`` and K itself for an atlas of equal slices (before stop
+    75); for bake.sampling_atlas's "mip" layout the level's own rows H_k = H 2^-k and
+    columns 2 H_k, and K and Slices such that the group's K (H_k + 2) is the
+    level's first row r_k = 2 H (1 - 2^-k) + 2 k and its Slices (H_k + 2) the
+    atlas's rows (fractions are fine: the group only multiplies them; every
+    value is exact in float32 but the quotients, whose rounding, below 1e-3 rows,
+    leaves each Closest tap on its texel's centre)."""
+    if meta.get("level_layout") != "mip":
+        return {**sizes, "K": k}
+    top = float(meta["slice_height"])
+    scale = b.math("POWER", 2.0, b.math("MULTIPLY", k, -1.0))
+    rows = b.math("MULTIPLY", scale, top)
+    padded = b.math("ADD", rows, 2.0)
+    first = b.math("ADD", b.math("SUBTRACT", 2.0 * top, b.math("MULTIPLY", rows, 2.0)),
+                   b.math("MULTIPLY", k, 2.0))
+    return {"K": b.math("DIVIDE", first, padded),
+            "Slices": b.math("DIVIDE", float(atlas_rows(meta)), padded),
+            "Slice Height": rows, "Slice Width": b.math("MULTIPLY", rows, 2.0),
+            "Atlas Cols": sizes["Atlas Cols"]}
+
+
 def _albedo(b, image, meta, wo, table=0):
     """rho(wo) from the table slice (``table`` 1: the lights' scale rho / A_ss, the
     rows after rho's): four Closest taps, bilinear weights."""
     count_mu, count_phi = int(meta["albedo_mu"]), int(meta["albedo_phi"])
-    height, width = int(meta["slice_height"]), int(meta["slice_width"])
-    rows, cols = float(int(meta["slices"]) * (height + 2)), float(width + 3)
-    base = int(meta["levels"]) * (height + 2) + 1 + table * count_phi
+    width = int(meta["slice_width"])
+    rows, cols = float(atlas_rows(meta)), float(width + 3)
+    base = table_row(meta) + table * count_phi
     min_cos = float(meta["min_cos"])
     wx, wy, wz = b.separate(wo)
     x = b.math("MULTIPLY", b.math("MINIMUM", b.math("MAXIMUM", b.math(
