@@ -74,7 +74,7 @@ from .errors import BakeError
 __all__ = ["Light", "extract", "extract_for", "extract_kept", "limits_for", "tile_growth",
            "max_spread_for", "compact_spread_for",
            "describe", "THRESHOLD", "THRESHOLDS", "THRESHOLDS_ABOVE", "RADIUS_TEXELS", "MAX_LIGHTS",
-           "TILE_FRACTION"]
+           "TILE_FRACTION", "TILE_RADIUS_MAX", "tile_radius_for"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Texels brighter than this many times the probe's mean luminance may be lights.
@@ -100,6 +100,10 @@ SPREAD_CAP_PER_ALPHA = 0.5
 #: Tiles of a wide region's brightest texels have a radius of this fraction of the
 #: lobe's alpha (limits_for); dimmer texels' tiles are wider (tile_growth).
 TILE_FRACTION = 0.25
+#: ... and at most this radius (rad; tile_radius_for): without it GGX 1's tiles were
+#: 0.25 rad (14 degrees) and their dimmer ones up to four times that, each one
+#: direction standing for a region the horizon and G2 cut in part.
+TILE_RADIUS_MAX = 0.1
 #: Steps per octave of the threshold ladders below (extract_for's rule is "the
 #: lowest threshold at which every bright region fits"; the ladder is its
 #: discretisation).
@@ -478,7 +482,32 @@ def limits_for(ax, ay=None) -> dict:
     ay = ax if ay is None else ay
     mean = float(np.sqrt(ax * ay))
     return {"max_spread": max_spread_for(min(ax, ay)),
-            "tile_radius": TILE_FRACTION * mean}
+            "tile_radius": tile_radius_for(mean)}
+
+
+def tile_radius_for(alpha) -> float:
+    """The tile radius (rad) of the brightest texels of a wide region for a lobe of
+    (geometric mean) alpha: TILE_FRACTION alpha, at most TILE_RADIUS_MAX (from
+    alpha 0.4, GGX roughness 0.63). Measured (``out/p75/tilecap.py``: the Hybrid's
+    parts in NumPy, the 3D map of the residual plus the lights' exact term,
+    against the world's own integral, a 64^2 px sphere of 2 x 2 sub-pixels, the
+    probe Auto captures; city / courtyard / forest / interior / night / studio /
+    sunrise / sunset, relative RMS %, lights in brackets):
+
+    - GGX 1 uncapped: 1.10 (5) / 1.69 (13) / 0.80 (14) / 1.29 (11) / 1.32 (12) /
+      0.60 (4) / 1.21 (3) / 1.10 (6);
+    - at most 0.1 rad: 0.48 (19) / 0.44 (44) / 0.48 (41) / 1.10 (23) / 0.60 (26) /
+      0.60 (4) / 1.25 (12) / 0.53 (21);
+    - at most 0.07 rad: 0.45 / 0.31 / 0.47 / 1.09 / 0.60 / 0.60 / 1.26 / 0.50 with up
+      to 65 lights; at most 0.05 rad up to 96 (MAX_LIGHTS) and courtyard / forest
+      at GGX 0.6 worse (3.53 -> 4.57, 4.01 -> 5.10);
+    - GGX 0.8: 1.80 / 2.41 / 1.75 / 2.84 / 3.70 / 1.01 / 2.03 / 2.78 uncapped, within
+      0.1 of those at 0.1 rad (1.70 / 2.40 / 1.73 / 2.84 / 3.68 / 1.02 / 2.04 /
+      2.74); GGX 0.6 (0.15 rad, under the cap) unchanged.
+
+    0.1 rad takes most of the gain at a third to a half of the lights 0.07 takes
+    (each costs the nodes about a third of a sample)."""
+    return min(TILE_FRACTION * float(alpha), TILE_RADIUS_MAX)
 
 
 def extract_for(probe, layout="cube", ax=0.09, ay=None, max_lights=MAX_LIGHTS,
@@ -565,7 +594,8 @@ def extract_kept(probe, layout="cube", ax=0.09, ay=None):
         if np.asarray(probe).shape[0] * np.asarray(probe).shape[1] <= KEPT_TEXELS else None
     return maps.kept(
         ("probe lights", THRESHOLDS, THRESHOLDS_ABOVE, REFINE_STEPS, RADIUS_TEXELS, MAX_LIGHTS,
-         ADJACENT_TEXELS, GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_EXCESS, TILE_GROWTH,
+         ADJACENT_TEXELS, GROUP_RADIUS_TEXELS, TILE_FRACTION, TILE_RADIUS_MAX, TILE_EXCESS,
+         TILE_GROWTH,
          SPREAD_PER_ALPHA, UNRESOLVED_SPREADS, SPREAD_CAP_PER_ALPHA, key),
         lambda: extract_for(probe, layout, ax, ay, prepared=prepared))
 

@@ -18,11 +18,13 @@ bake.sampling is realised by blending pre-blurred levels held in an atlas:
 
 Until stop 75 every level was sampled back bilinearly at the base's texels
 and stored H x W (L slices of H + 2 rows): 9-11 times the base's texels, and a
-lookup read a bilinear resampling of the level rather than the level itself
-(measured against the brute-force integral, GGX 0.6-1 on four bundled HDRIs
-and tiny spots, 64 px probes: the native levels were closer in all 15 cases,
-for example night.exr at GGX 1 0.176 against 0.194 relative RMS). Atlases of
-that layout (no ``level_layout``) are still read as they were.
+lookup read a bilinear resampling of the level, a little blurrier than the
+level itself. Against the brute-force integral (runtime sampling, GGX 0.1-1,
+tiny spots and four bundled HDRIs from 64 px probes, 128-row stacks) the two
+layouts differ by 0-3% of the error, mostly in the old one's favour at GGX
+0.6, whose MIP bias (bake.sampling_runtime.mip_bias_for) was measured on it;
+in EEVEE against Cycles they measured the same (README, "Stop 75"). Atlases
+of that layout (no ``level_layout``) are still read as they were.
 
 :class:`AtlasProbe` has :class:`bake.sampling.MipProbe`'s interface, so
 ``bake.sampling.render_regular(..., mip=AtlasProbe(atlas, meta))`` is the

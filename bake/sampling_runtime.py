@@ -443,7 +443,7 @@ def pack(probe, spec, layout="cube", budget=19, height=None, filter="gauss4", xi
     is ``height``), and every lookup reads what it read in the whole stack, the
     lat-long texel's solid angle scaling the level by exactly first_level
     (bake.sampling_atlas.pack_levels). GGX 0.6 from a 256-row stack: 6 levels of 64
-    rows instead of 8 of 256, about 1/20 of the texels.
+    rows instead of 8 of 256, about 1/15 of the texels.
     lights: bake.probe_lights.Light's taken out of ``probe`` (then the residual),
     shaded exactly by :func:`shade` and the nodes; kept in ``meta["lights"]``.
     bias: the lookups' MIP bias (None: :func:`mip_bias_for` the lobe).

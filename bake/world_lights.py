@@ -87,11 +87,11 @@ EXTRACT_ROWS = 1024
 
 def resolves(world_shape, alpha) -> bool:
     """Whether a GGX lobe of smallest alpha ``alpha`` tiles at least as coarsely as
-    the world's texel (lat-long (H, 2H)): probe_lights.TILE_FRACTION alpha against
+    the world's texel (lat-long (H, 2H)): probe_lights.tile_radius_for(alpha) against
     the equator texel's angle pi / H; only then are the world's texels the
     better measure of the lights (module doc)."""
     height = int(world_shape[0])
-    return probe_lights.TILE_FRACTION * float(alpha) >= math.pi / height
+    return probe_lights.tile_radius_for(alpha) >= math.pi / height
 
 
 def from_world(lights, world, cube_face, to_texture=None, strength=1.0):
@@ -326,7 +326,7 @@ def _split_for(probe, layout, ax, ay, world, mapping, world_digest):
         return residual, lights, "lights measured on the probe (it is not a cube)"
     if not resolves(np.shape(world), mean_alpha):
         return residual, lights, (f"lights measured on the probe: the lobe's tiles "
-                                  f"({probe_lights.TILE_FRACTION * mean_alpha:.2g} rad) are "
+                                  f"({probe_lights.tile_radius_for(mean_alpha):.2g} rad) are "
                                   f"finer than the world's texels")
     rotation = rotation_of(mapping)
     if rotation is None:
@@ -389,7 +389,7 @@ def measured_level(world_shape, count, alpha) -> int:
     """How many times the (H, 2H) world is box-reduced before a lobe's lights are
     measured on it: the most, up to the ``count`` reductions bake.envmap.convert
     applies for the probe (those levels are made anyway), at which the lobe's
-    tiles (probe_lights.TILE_FRACTION ``alpha``, the geometric mean alpha) still
+    tiles (probe_lights.tile_radius_for ``alpha``, the geometric mean alpha) still
     span TILE_TEXELS texels (pi / rows at the equator); 0 (the world's own texels)
     when none does. The reduction is exact in energy, so the split stays exact;
     what moves is the share of a bright region's edge texels that a light takes
@@ -398,7 +398,7 @@ def measured_level(world_shape, count, alpha) -> int:
     of the probe's, their directions 0.01 degrees, against 0.50 -> 0.09 s and
     1.46 -> 0.06 s for measuring them)."""
     rows = int(world_shape[0])
-    tile = probe_lights.TILE_FRACTION * float(alpha)
+    tile = probe_lights.tile_radius_for(alpha)
     depth = 0
     while depth < count and tile >= TILE_TEXELS * math.pi / (rows >> (depth + 1)):
         depth += 1
