@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import BakeError
 
-__all__ = ["pack", "shade", "texel_uv", "storage_precision", "HALF_MAX"]
+__all__ = ["pack", "shade", "texel_uv", "storage_precision", "HALF_MAX", "block_lookup"]
 
 #: Largest finite value of a 16-bit float.
 HALF_MAX = 65504.0
@@ -166,6 +166,14 @@ def texel_uv(row, col, atlas_shape):
 
 def _lookup(atlas, meta, k, centre):
     height, width = meta["slice_height"], meta["slice_width"]
+    return block_lookup(atlas, height, width, k * (height + 2), centre)
+
+
+def block_lookup(atlas, height, width, first_row, centre):
+    """(..., 3) bilinear lookups at unit directions ``centre`` (..., 3) of the padded
+    lat-long blocks of ``height`` rows and ``width`` columns (texels; scalars or
+    arrays broadcast with ``centre``'s leading shape) whose pole row is atlas row
+    ``first_row``: the four taps the nodes' ``Glossy Atlas Taps`` group reads."""
     u = np.mod(0.5 - np.arctan2(centre[..., 1], centre[..., 0]) / (2 * np.pi), 1.0)
     y = np.arccos(np.clip(centre[..., 2], -1.0, 1.0)) / np.pi * height
     px = u * width + 0.5
@@ -177,9 +185,9 @@ def _lookup(atlas, meta, k, centre):
     y0 = np.minimum(np.floor(py).astype(int), height)
     fx = (px - x0)[..., None]
     fy = (py - y0)[..., None]
-    base = k * (height + 2)
-    top = atlas[base + y0, x0] * (1 - fx) + atlas[base + y0, x0 + 1] * fx
-    bottom = atlas[base + y0 + 1, x0] * (1 - fx) + atlas[base + y0 + 1, x0 + 1] * fx
+    row = first_row + y0
+    top = atlas[row, x0] * (1 - fx) + atlas[row, x0 + 1] * fx
+    bottom = atlas[row + 1, x0] * (1 - fx) + atlas[row + 1, x0 + 1] * fx
     return top * (1 - fy) + bottom * fy
 
 

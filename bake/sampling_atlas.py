@@ -35,7 +35,7 @@ distortion factor, as (2/n)^2 |d|_inf^3 is the cube's).
 
 import numpy as np
 
-from .atlas import _lookup, _pad
+from .atlas import _lookup, _pad, block_lookup
 from .envmap import convert, get_layout
 from .envmap.mip import pyramid
 from .errors import BakeError
@@ -154,22 +154,7 @@ def level_lookup(atlas, meta, level, directions):
     top = int(meta["slice_height"])
     level = np.asarray(level)
     height = top >> level
-    width = 2 * height
-    u = np.mod(0.5 - np.arctan2(directions[..., 1], directions[..., 0]) / (2 * np.pi), 1.0)
-    y = np.arccos(np.clip(directions[..., 2], -1.0, 1.0)) / np.pi * height
-    px = u * width + 0.5
-    py = np.where(y < 0.5, 2.0 * y,
-                  np.where(y > height - 0.5, height + 1.0 - 2.0 * (height - y), y + 0.5))
-    px = np.clip(px, 0.0, width + 1.0)
-    py = np.clip(py, 0.0, height + 1.0)
-    x0 = np.minimum(np.floor(px).astype(int), width)
-    y0 = np.minimum(np.floor(py).astype(int), height)
-    fx = (px - x0)[..., None]
-    fy = (py - y0)[..., None]
-    base = level_row(top, level) + y0
-    top_row = atlas[base, x0] * (1 - fx) + atlas[base, x0 + 1] * fx
-    bottom = atlas[base + 1, x0] * (1 - fx) + atlas[base + 1, x0 + 1] * fx
-    return top_row * (1 - fy) + bottom * fy
+    return block_lookup(atlas, height, 2 * height, level_row(top, level), directions)
 
 
 class AtlasProbe:

@@ -13,13 +13,19 @@ ISOTROPIC = "ggx:roughness=0.3"
 ANISOTROPIC = "ggx:roughness=0.3,anisotropy=0.8,rotation=0.1"
 
 
-def _pixels(count=1500, seed=1):
+def _normals_views(count, seed):
+    """(normals, views) (count, 3) each, random unit vectors, views in the normals'
+    hemisphere."""
     rng = np.random.default_rng(seed)
     n = rng.normal(size=(count, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     v = rng.normal(size=(count, 3))
     v /= np.linalg.norm(v, axis=1, keepdims=True)
-    v = np.where((np.sum(n * v, axis=1) < 0)[:, None], -v, v)
+    return n, np.where((np.sum(n * v, axis=1) < 0)[:, None], -v, v)
+
+
+def _pixels(count=1500, seed=1):
+    n, v = _normals_views(count, seed)
     keep = np.sum(n * v, axis=1) > 0.05
     n, v = n[keep], v[keep]
     t = np.cross(n, (0.2, 0.3, 0.9))
@@ -457,12 +463,7 @@ def test_the_rows_a_power_of_two_lost_lower_the_error_against_brute_force():
 def _pixels_to_the_silhouette(count=2000, seed=5):
     """Pixels as :func:`_pixels`, a tenth of them viewed at the silhouette (n.v = 0,
     where the shade clamps wo_z to MIN_COS and the footprints are smallest)."""
-    rng = np.random.default_rng(seed)
-    n = rng.normal(size=(count, 3))
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    v = rng.normal(size=(count, 3))
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    v = np.where((np.sum(n * v, axis=1) < 0)[:, None], -v, v)
+    n, v = _normals_views(count, seed)
     edge = slice(0, count // 10)
     v[edge] -= np.sum(n[edge] * v[edge], axis=1)[:, None] * n[edge]
     v[edge] /= np.linalg.norm(v[edge], axis=1, keepdims=True)
