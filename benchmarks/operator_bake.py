@@ -17,10 +17,13 @@ of 128 px faces in sunset.exr:
 - eight materials on the sphere baked by one operator call (Principled metal
   at Roughness 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8 and a Glossy BSDF with
   Beckmann 0.4), against the mean of the same eight baked one by one cold:
-  the issue's "8 materials < 3x one".
+  the issue's "8 materials < 3x one";
+- eight colours of Blender's default material (Principled dielectric,
+  Roughness 0.5, Base Color varied) in one call, against single bakes of two of
+  them: materials that share a lobe shape share its fit and its filtering.
 
     .venv/bin/python benchmarks/operator_bake.py [--hdri sunset.exr] [--face 128]
-        [--singles-only]
+        [--singles-only | --colours-only]
 
 Times are wall-clock seconds of the operator call alone (the capture before it
 is not counted); no timing is asserted anywhere.
@@ -58,9 +61,12 @@ environment_world(scene, hdri)
 bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
 sphere = bpy.context.object
 world_probe(sphere, face)
-for index, (shader, roughness, metallic) in enumerate(materials):
+for index, (shader, roughness, metallic, *colour) in enumerate(materials):
     material, tree, node = shader_material(f"M{index}", shader)
     node.inputs["Roughness"].default_value = roughness
+    if colour:
+        node.inputs["Base Color" if "Base Color" in node.inputs else "Color"].default_value = \
+            (*colour, 1.0)
     if shader == "ShaderNodeBsdfPrincipled":
         node.inputs["Metallic"].default_value = metallic
     else:
@@ -78,10 +84,14 @@ PRINCIPLED = "ShaderNodeBsdfPrincipled"
 SINGLES = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.3, 0.6, 1.0)] + [(PRINCIPLED, 0.5, 0.0)]
 EIGHT = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)]
 EIGHT.append(("ShaderNodeBsdfGlossy", 0.4, 0.0))
+#: Eight colours of Blender's default material (a Principled dielectric, Roughness
+#: 0.5): one specular lobe shape, so one fit (rescaled, bake.lobes.shape_key), one
+#: filtering and one white irradiance serve all eight.
+COLOURS = [(PRINCIPLED, 0.5, 0.0, 0.1 + 0.1 * i, 0.9 - 0.1 * i, 0.5) for i in range(8)]
 
 
 def label(material):
-    shader, roughness, metallic = material
+    shader, roughness, metallic = material[:3]
     if shader != PRINCIPLED:
         return f"Glossy BSDF, Beckmann {roughness:g}"
     kind = "metal" if metallic else "dielectric + diffuse"
@@ -120,7 +130,11 @@ def main():
     parser.add_argument("--face", type=int, default=128, help="probe face px (Fixed)")
     parser.add_argument("--singles-only", action="store_true",
                         help="the single bakes only (not the eight)")
+    parser.add_argument("--colours-only", action="store_true",
+                        help="the eight colours of the default material only")
     args = parser.parse_args()
+    if args.colours_only:
+        return colours(args)
     print(f"glossy.bake_materials, one sphere, World Only probe of {args.face} px faces in "
           f"{args.hdri}, caches cold (a fresh process per call):", flush=True)
     for material in SINGLES:
@@ -137,6 +151,19 @@ def main():
     print(f"  eight materials (Principled metal 0.05-0.8, Glossy BSDF Beckmann 0.4; "
           f"methods {', '.join(sorted(set(methods)))}) in one call: {together:.2f} s, against "
           f"{mean:.2f} s for the mean single bake of the same eight "
+          f"({' / '.join(f'{s:.2f}' for s in singles)}): ratio {together / mean:.1f} "
+          f"(target < 3)", flush=True)
+    colours(args)
+
+
+def colours(args):
+    """Eight colours of the default material in one call against two single bakes."""
+    singles = [bake([material], args.hdri, args.face)[0] for material in COLOURS[:2]]
+    together, methods = bake(COLOURS, args.hdri, args.face)
+    mean = sum(singles) / len(singles)
+    print(f"  eight colours of the default material (Principled dielectric, Roughness 0.5; "
+          f"methods {', '.join(sorted(set(methods)))}) in one call: {together:.2f} s, against "
+          f"{mean:.2f} s for the mean single bake of two of them "
           f"({' / '.join(f'{s:.2f}' for s in singles)}): ratio {together / mean:.1f} "
           f"(target < 3)", flush=True)
 

@@ -23,7 +23,8 @@ Prints, in one run:
    measured) timed and measured in the same run (target: < 3 s); "step s"
    is the longest step (one UI timer tick: how long Esc can wait);
 6. eight materials baked from one probe in one session against the mean
-   of their single cold bakes (target: less than 3x);
+   of their single cold bakes (target: less than 3x): eight roughness values,
+   and eight colours of one dielectric (one lobe shape: one fit, rescaled);
 7. the spherical-harmonic path (bake.sh_reflection, Cabral et al. sections
    7-8): a GGX 0.5 sphere (64 x 64 px) in forest.exr (6 x 64^2 probe), relative
    RMS error of luminance against the brute-force integral as the order M
@@ -474,8 +475,9 @@ def eight_materials():
             bake_like_blender(probe, f"ggx:roughness=0.3,color={tint}", tint, folder=Path(tmp))
         tinted = time.perf_counter() - start
     print(f"   eight tints of GGX 0.3 with a diffuse part: {tinted:.2f} s in one session, "
-          f"against {one:.2f} s for one (ratio {tinted / one:.1f}): each lobe shape is "
-          f"filtered once per probe (bake.probe_maps.ProbeMaps.filtered)")
+          f"against {one:.2f} s for one (ratio {tinted / one:.1f}; target < 3): the lobes "
+          f"are fitted once and rescaled per colour (bake.lobes.shape_key) and each lobe "
+          f"shape is filtered once per probe (bake.probe_maps.ProbeMaps.filtered)")
 
 
 def sh_convergence(forest):
