@@ -143,27 +143,25 @@ def main():
               flush=True)
     if args.singles_only:
         return
-    singles = []
-    for material in EIGHT:
-        singles.append(bake([material], args.hdri, args.face)[0])
-    together, methods = bake(EIGHT, args.hdri, args.face)
-    mean = sum(singles) / len(singles)
-    print(f"  eight materials (Principled metal 0.05-0.8, Glossy BSDF Beckmann 0.4; "
-          f"methods {', '.join(sorted(set(methods)))}) in one call: {together:.2f} s, against "
-          f"{mean:.2f} s for the mean single bake of the same eight "
-          f"({' / '.join(f'{s:.2f}' for s in singles)}): ratio {together / mean:.1f} "
-          f"(target < 3)", flush=True)
+    together_against_singles(args, EIGHT, EIGHT,
+                             "eight materials (Principled metal 0.05-0.8, Glossy BSDF "
+                             "Beckmann 0.4", "the same eight")
     colours(args)
 
 
 def colours(args):
     """Eight colours of the default material in one call against two single bakes."""
-    singles = [bake([material], args.hdri, args.face)[0] for material in COLOURS[:2]]
-    together, methods = bake(COLOURS, args.hdri, args.face)
+    together_against_singles(args, COLOURS, COLOURS[:2], "eight colours of the default "
+                             "material (Principled dielectric, Roughness 0.5", "two of them")
+
+
+def together_against_singles(args, materials, singles_of, title, which):
+    """Print one call baking ``materials`` against the mean single bake of ``singles_of``."""
+    singles = [bake([material], args.hdri, args.face)[0] for material in singles_of]
+    together, methods = bake(materials, args.hdri, args.face)
     mean = sum(singles) / len(singles)
-    print(f"  eight colours of the default material (Principled dielectric, Roughness 0.5; "
-          f"methods {', '.join(sorted(set(methods)))}) in one call: {together:.2f} s, against "
-          f"{mean:.2f} s for the mean single bake of two of them "
+    print(f"  {title}; methods {', '.join(sorted(set(methods)))}) in one call: "
+          f"{together:.2f} s, against {mean:.2f} s for the mean single bake of {which} "
           f"({' / '.join(f'{s:.2f}' for s in singles)}): ratio {together / mean:.1f} "
           f"(target < 3)", flush=True)
 
