@@ -264,7 +264,15 @@ def cmd_sample(args):
     """Runtime regular sampling's texture (bake.sampling_runtime.pack) of a probe, and
     with ``--map`` the Hybrid: the 3D map of the same probe without its lights, the
     blend weights w(mu) in the texture's metadata (bake.hybrid)."""
-    from . import brdf, hybrid, prefilter, probe_lights, sampling_runtime, world_lights
+    from . import (
+        brdf,
+        hybrid,
+        prefilter,
+        probe_content,
+        probe_lights,
+        sampling_runtime,
+        world_lights,
+    )
     from .atlas import storage_precision
 
     output = _check_output(args.output, args.input)
@@ -292,7 +300,9 @@ def cmd_sample(args):
     rows, why = sampling_runtime.stack_height(image.shape, layout, fixed=args.height, cap=cap,
                                               names=("--height", f"--max-size {cap}"),
                                               alone=map_path is None and
-                                              sampling_runtime.near_mirror(lobe))
+                                              sampling_runtime.near_mirror(lobe),
+                                              content_shape=probe_content.of_probe(
+                                                  image, layout).shape)
     prefilter.check_memory(rows, 2, "level stack")
     progress = None if args.quiet else LinePrinter()
     residual, lights = image, ()

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, exr, lobes, outputs, resolution, sh, slice_basis
+from . import __version__, exr, lobes, outputs, probe_content, resolution, sh, slice_basis
 from .brdf import BRDF, parse
 from .brdf.microfacet import ggx_d
 from .envmap import get_layout
@@ -488,10 +488,16 @@ def _resolve_size(size, max_size, half_widths, image, probe_layout, layers=1):
     if size in (None, "auto"):
         max_size = DEFAULT_MAX_SIZE if max_size is None else _check_size(max_size, "max_size")
         choice = resolution.choose_map_rows(half_widths, image.shape, probe_layout, max_size,
-                                            layers)
+                                            layers, content_shape=_content_shape(image,
+                                                                                 probe_layout))
         return choice.value, choice.reason
     size = _check_size(size)
     return size, f"{size} rows: set by hand"
+
+
+def _content_shape(image, probe_layout):
+    """The shape of the coarsest pyramid level standing for the probe's content."""
+    return probe_content.of_probe(image, probe_layout).shape
 
 
 @dataclass

@@ -42,6 +42,14 @@ Auto over twice 7.1 / 4.5 (32 px probe, 16 / 28 px spheres, errors 0.40 /
 0.83%), 0.59 / 1.73 (64 px, 0.22 / 0.15%), 1.48 / 0.73 (128 px, where the
 atlas's texture limit caps Auto at 1022 rows; 1.08 / 0.82%).
 
+The probe term is the probe's texels unless its *content* is smoother
+(bake.probe_content): when a coarser level of the probe's box MIP pyramid
+reconstructs the probe to 0.1% of its mean (RMS), w_probe is half that
+level's texel (``content_shape`` of :func:`choose_map_rows`). That bound
+keeps the map's extra error at about 0.1%; a constant world then bakes at
+MIN_ROWS, and every bundled HDRI keeps its texels (`benchmarks/
+resolution_curve.py --smooth`).
+
 The probe face a lobe needs (:func:`choose_probe_face`): the larger of the
 face whose half texel is no wider than the lobe (then the lobe, not the
 probe, sets the map) and PROBE_FACE_PER_ROOT_WIDTH / sqrt(w_lobe), the face
@@ -149,7 +157,7 @@ class Choice:
     def __init__(self, value: int, reason: str, limited_by: str):
         self.value = int(value)
         self.reason = reason
-        #: "lobe", "probe", "maximum" or "minimum": what set the value.
+        #: "lobe", "content", "probe", "maximum" or "minimum": what set the value.
         self.limited_by = limited_by
 
     def __repr__(self):
@@ -157,21 +165,34 @@ class Choice:
 
 
 def choose_map_rows(half_widths, probe_shape, probe_layout, maximum=None, layers=1,
-                    texture_limit=16384) -> Choice:
+                    texture_limit=16384, content_shape=None) -> Choice:
     """Auto lat-long rows of a baked map.
 
     half_widths: widths (rad, :func:`lobe_half_width`) of every lobe the map
     holds (the narrowest rules); probe_shape / probe_layout: the probe
     filtered; maximum: the user's upper bound (None: none); layers: slices
     stacked in the atlas, which must stay within ``texture_limit`` rows.
+    content_shape: the (H, W) of the coarsest level of the probe's box MIP
+    pyramid that stands for its content (bake.probe_content.content_detail;
+    None or the probe's own shape: its texels): the rule then sees the probe
+    through that level's texels, since the probe holds no finer detail.
     """
     narrowest = float(min(half_widths))
-    width = effective_half_width(narrowest, probe_shape, probe_layout)
+    smoother = content_shape is not None and int(content_shape[0]) < int(probe_shape[0])
+    width = effective_half_width(narrowest, content_shape if smoother else probe_shape,
+                                 probe_layout)
     wanted = _round_rows(rows_for_half_width(width))
     rows, limited_by = wanted, "lobe"
-    reason = (f"{rows} rows: the lobe (width {math.degrees(narrowest):.2f} deg) seen "
-              f"through the probe's texels ({probe_shape[0]} px {probe_layout}) spans "
-              f"{TEXELS_PER_HALF_WIDTH:g} texels")
+    if smoother:
+        limited_by = "content"
+        reason = (f"{rows} rows: the lobe (width {math.degrees(narrowest):.2f} deg) seen "
+                  f"through the probe's content, no more detailed than a "
+                  f"{int(content_shape[0])} px {probe_layout} (the {probe_shape[0]} px "
+                  f"probe holds nothing finer), spans {TEXELS_PER_HALF_WIDTH:g} texels")
+    else:
+        reason = (f"{rows} rows: the lobe (width {math.degrees(narrowest):.2f} deg) seen "
+                  f"through the probe's texels ({probe_shape[0]} px {probe_layout}) spans "
+                  f"{TEXELS_PER_HALF_WIDTH:g} texels")
     if rows == MIN_ROWS:
         limited_by = "minimum"
     gpu = texture_limit // max(int(layers), 1) - 2

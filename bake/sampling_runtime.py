@@ -194,7 +194,7 @@ def near_mirror(lobe) -> bool:
 
 
 def stack_height(probe_shape, layout, fixed=None, cap=None,
-                 names=("Map Size", "Max Map Size"), alone=False) -> tuple:
+                 names=("Map Size", "Max Map Size"), alone=False, content_shape=None) -> tuple:
     """(rows, why) of the level stack :func:`pack` makes from a probe of
     ``probe_shape`` (H, W) in ``layout``: ``fixed`` rows when given, else the
     probe's own detail (a lat-long twice a cube face's rows, or the rows of a
@@ -208,7 +208,12 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
     the world's brute-force integral in NumPy: runtime sampling 4.1% at 256 rows,
     2.3% at 384, benchmarks/stack_rows.py).
     ``names``: what ``why`` calls the fixed size and the cap (Blender's fields,
-    or the command line's options).
+    or the command line's options). ``content_shape``: the (H, W) of the
+    coarsest level of the probe's box pyramid that stands for its content
+    (bake.probe_content.of_probe); when smaller than the probe, the stack's
+    own detail is that level's (a smooth probe's finer levels hold nothing the
+    lookups would miss: the level differs from the probe by at most
+    bake.probe_content.TOLERANCE of its mean, RMS).
 
     ``alone``: the stack is the bake's only texture (Runtime Sampling; not the
     Hybrid's, whose weights were measured with stacks capped at the map's
@@ -223,7 +228,9 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
     Beckmann 0.05 measured 6.1% at 384 rows and 4.5% at 512 (the probe's 656
     rows of detail, rounded down), GGX 0.05 4.3% and 2.9%; careful native EEVEE
     12.0% and 9.6%."""
-    natural = 2 * int(probe_shape[0]) if layout == "cube" else int(probe_shape[0])
+    smoother = content_shape is not None and int(content_shape[0]) < int(probe_shape[0])
+    detail = content_shape if smoother else probe_shape
+    natural = 2 * int(detail[0]) if layout == "cube" else int(detail[0])
     if alone and fixed is None and cap is not None:
         cap = min(ALONE_CAP_FACTOR * int(cap), ALONE_MAX_ROWS)
         names = (names[0], f"{ALONE_CAP_FACTOR} x {names[1]} (the stack is the only "
@@ -232,6 +239,9 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
         wanted, why = int(fixed), f"set by {names[0]}"
     elif cap is not None and natural > cap:
         wanted, why = int(cap), f"the probe's {natural} capped by {names[1]}"
+    elif smoother:
+        wanted, why = natural, (f"the probe's content, no more detailed than a "
+                                f"{int(detail[0])} px {layout}")
     else:
         wanted, why = natural, "the probe's own detail"
     rows = stack_rows_below(wanted)

@@ -58,6 +58,7 @@ from bake import (  # noqa: E402
     hybrid,
     lobes,
     prefilter,
+    probe_content,
     probe_lights,
     probe_maps,
     sampling_runtime,
@@ -325,8 +326,9 @@ def _bake_like_blender(probe, spec, diffuse, folder, steps, hybrid_too):
         tick = time.perf_counter()
         lobe = sampling_runtime.check(spec)[0]
         glossy_probe, lights = probe_lights.extract_kept(probe, "cube", lobe.mx, lobe.my)
-        rows = sampling_runtime.stack_height(probe.shape, "cube",
-                                             cap=prefilter.DEFAULT_MAX_SIZE)[0]
+        rows = sampling_runtime.stack_height(
+            probe.shape, "cube", cap=prefilter.DEFAULT_MAX_SIZE,
+            content_shape=probe_content.of_probe(probe, "cube").shape)[0]
         image, meta = sampling_runtime.pack(glossy_probe, spec, budget=19, height=rows,
                                             lights=lights)
         centres, weights = hybrid.weight_curve(float(np.sqrt(meta["ax"])),

@@ -23,6 +23,15 @@ figure by which map texels a centre ray lands between
 (:func:`sphere_subpixels`).
 
     .venv/bin/python benchmarks/resolution_curve.py [--faces 64] [--pixels 24] [--supersample 4]
+
+``--smooth`` measures the content term instead (bake.probe_content): for
+worlds smoother than their texels (Blender's default world colour, a smooth
+sky) and sunset.exr beside them, the pyramid level that stands for the probe,
+and per roughness the texel rule's rows against the content rule's (Auto),
+each with its cold bake time and its error against the same brute-force
+integral:
+
+    .venv/bin/python benchmarks/resolution_curve.py --smooth [--faces 128]
 """
 
 import argparse
@@ -34,7 +43,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bake import envmap, exr, lobes, prefilter, resolution  # noqa: E402
+from bake import (  # noqa: E402
+    envmap,
+    exr,
+    lobes,
+    prefilter,
+    probe_content,
+    probe_maps,
+    resolution,
+)
 from bake.reference import render  # noqa: E402
 from tools.bpy_wheel import studio_lights  # noqa: E402
 
@@ -129,16 +146,78 @@ def curve(probe, spec, pixels, supersample, sizes):
     return auto.meta, rows
 
 
+def smooth_sky(face, glow=0.6, sharpness=3.0):
+    """(face, 6 face, 3) float32 cube: a constant plus a broad glow exp(k (d.s - 1))
+    about an oblique direction, smooth everywhere (no horizon kink), coloured."""
+    cube = envmap.get_layout("cube")
+    directions = cube.texel_directions(cube.shape(face))
+    towards = np.array([0.48, 0.6, 0.64])
+    glow_term = glow * np.exp(sharpness * (directions @ towards - 1.0))
+    return (np.array([0.2, 0.25, 0.35]) + glow_term[..., None] * np.array([1.0, 0.8, 0.5])
+            ).astype(np.float32)
+
+
+def smooth_worlds(faces, pixels, supersample, roughness_values):
+    """The ``--smooth`` table (module doc)."""
+    source, _ = exr.read(studio_lights() / "sunset.exr")
+    worlds = {"constant 0.0508 (Blender's default)": np.full((faces, 6 * faces, 3), 0.0508,
+                                                             np.float32),
+              "smooth sky (glow 0.3, k 1)": smooth_sky(faces, 0.3, 1.0),
+              "smooth sky (glow 0.6, k 3)": smooth_sky(faces, 0.6, 3.0),
+              "sunset.exr": envmap.convert(source, "latlong", "cube", faces)}
+    normals, views, average = sphere_subpixels(pixels, supersample)
+    print(f"content term (bake.probe_content, tolerance {probe_content.TOLERANCE:g}): "
+          f"6 x {faces}^2 probes, {pixels} px sphere over {supersample}^2 sub-pixels, error "
+          f"against the brute-force integral over the probe's bilinear reconstruction; "
+          f"bakes cold (fit included)")
+    print(f"   {'world':36s} {'level':>5s} {'GGX':>5s}   {'texel rows':>10s} {'s':>5s} "
+          f"{'error':>7s}   {'Auto rows':>9s} {'s':>5s} {'error':>7s}")
+    for name, probe in worlds.items():
+        probe_maps.clear_cache()
+        detail = probe_content.of_probe(probe, "cube")
+        for roughness in roughness_values:
+            spec = f"ggx:roughness={roughness}"
+            truth = truth_of(prefilter.parse(spec), probe, normals, views)
+            results = []
+            for content in (False, True):
+                lobes._CACHE.clear()
+                probe_maps.clear_cache()
+                start = time.perf_counter()
+                fit = lobes.fit(spec, slices=16)
+                if content:
+                    baked = prefilter.prefilter(probe, fit, "3d", "auto", layout="cube")
+                else:
+                    widths = [resolution.lobe_half_width(lobes.GAMMA, s.lobes[0].profile)
+                              for s in fit.slices]
+                    rows = resolution.choose_map_rows(widths, probe.shape, "cube",
+                                                      prefilter.DEFAULT_MAX_SIZE, 16).value
+                    baked = prefilter.prefilter(probe, fit, "3d", rows, layout="cube")
+                elapsed = time.perf_counter() - start
+                error = pixel_relative_rms(baked.shade(normals, views), truth, average)
+                results.append((baked.meta["size"], elapsed, error))
+            (rows0, time0, error0), (rows1, time1, error1) = results
+            print(f"   {name:36s} {detail.level:5d} {roughness:5g}   {rows0:10d} {time0:5.2f} "
+                  f"{error0:7.4f}   {rows1:9d} {time1:5.2f} {error1:7.4f}", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--faces", type=int, default=64)
+    parser.add_argument("--faces", type=int, default=None,
+                        help="probe cube faces (default 64; 128 with --smooth)")
     parser.add_argument("--pixels", type=int, default=24)
     parser.add_argument("--supersample", type=int, default=4,
                         help="sub-pixels per pixel side of the anti-aliased figure")
     parser.add_argument("--hdri", default="sunset.exr")
     parser.add_argument("--roughness", default="0.05,0.1,0.2,0.3,0.6")
     parser.add_argument("--sizes", default="32,48,64,96,128,192,256,384,512")
+    parser.add_argument("--smooth", action="store_true",
+                        help="the content term's table instead (module doc)")
     args = parser.parse_args()
+    if args.smooth:
+        smooth_worlds(args.faces or 128, args.pixels, args.supersample,
+                      [float(r) for r in args.roughness.split(",")])
+        return
+    args.faces = args.faces or 64
     source, _ = exr.read(studio_lights() / args.hdri)
     probe = envmap.convert(source, "latlong", "cube", args.faces)
     sizes = [int(x) for x in args.sizes.split(",")]

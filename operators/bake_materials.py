@@ -17,6 +17,7 @@ from ..bake import (
     lamp_spread,
     outputs,
     prefilter,
+    probe_content,
     probe_lights,
     sampling_runtime,
     separable,
@@ -165,10 +166,13 @@ def runtime_height(settings, probe, layout, alone=False) -> tuple:
     (bake.sampling_runtime.stack_height): the probe's own detail, at most Map Size
     (Auto; twice it, up to 1024, when ``alone``: Runtime Sampling of a near-mirror
     lobe, bake.sampling_runtime.near_mirror, whose only texture the stack is) or
-    Map Size (Fixed), as a power of two or three times one."""
+    Map Size (Fixed), as a power of two or three times one; a probe whose content
+    is smoother than its texels (bake.probe_content) gets its content's rows."""
     fixed = settings.map_size if settings.size_mode == "FIXED" else None
     return sampling_runtime.stack_height(probe.shape, layout, fixed=fixed,
-                                         cap=settings.map_size, alone=alone)
+                                         cap=settings.map_size, alone=alone,
+                                         content_shape=probe_content.of_probe(probe,
+                                                                              layout).shape)
 
 
 def _light_steps(probe, layout, ax, ay, world=None):

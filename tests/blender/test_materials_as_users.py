@@ -43,6 +43,13 @@ def test_one_bake_and_attach_for_the_whole_selection(shared):
     for name, baked in together["baked"].items():
         assert baked["object"] == name and baked["status"] == "up to date", baked
         assert baked["roughness"] == pytest.approx(0.5)
+        # Auto within Max Map Size 384: a constant world's probe holds no detail
+        # finer than one texel per face (bake.probe_content), so the map takes the
+        # fewest rows and the panel says why (the texel rule: 72 rows from these
+        # 16 px probes).
+        assert baked["chosen_size"] == 16, baked
+        assert "the probe's content, no more detailed than a 1 px cube" in \
+            baked["size_reason"], baked
     red, green = together["means"]["A"], together["means"]["B"]
     assert red[0] > 10 * max(red[1], red[2]) and green[1] > 10 * max(green[0], green[2])
     # A constant world reflects its colour times the GGX albedo at n.v: A's red

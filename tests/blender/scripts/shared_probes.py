@@ -10,8 +10,9 @@ then for B; EEVEE renders both (orthographic, 96 x 48 px): each sphere must
 show its own probe's colour. Then B's probe is captured again under a green
 world, and B re-baked and re-attached: A's pixels must not change.
 
-Then, as a user does with a whole scene: both materials' Roughness set to 0.5,
-A, B and a third object C (outside the camera, with a material but no probe)
+Then, as a user does with a whole scene: both materials' Roughness set to 0.5
+(and Map Size to Auto: the constant worlds' maps take the fewest rows), A, B
+and a third object C (outside the camera, with a material but no probe)
 selected, and one Bake Materials and one Attach Lookups for the selection:
 each sphere must show its own probe at the new roughness; C is skipped.
 """
@@ -124,6 +125,10 @@ plain.glossy.model = "ggx"
 other.data.materials.append(plain)
 for sphere in spheres.values():
     sphere.material_slots[0].material.glossy.roughness = 0.5
+    # Auto map size within the default bound: a constant world holds no detail,
+    # so Auto bakes the fewest rows (bake.probe_content) and says why.
+    sphere.material_slots[0].material.glossy.size_mode = "AUTO"
+    sphere.material_slots[0].material.glossy.map_size = 384
 only_c = run(bpy.ops.glossy.bake_materials)  # C alone is selected: refused
 bpy.ops.object.select_all(action="DESELECT")
 for obj in (spheres["A"], spheres["B"], other):
@@ -137,6 +142,8 @@ result["together"] = {
     "baked": {name: {"material": s.material_slots[0].material.name,
                      "object": s.material_slots[0].material.glossy.bake_object,
                      "roughness": s.material_slots[0].material.glossy.roughness,
+                     "chosen_size": s.material_slots[0].material.glossy.chosen_size,
+                     "size_reason": s.material_slots[0].material.glossy.size_reason,
                      "status": bake_status(s.material_slots[0].material.glossy,
                                            s.glossy.probe_path)}
               for name, s in spheres.items()},
