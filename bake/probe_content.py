@@ -102,17 +102,17 @@ def content_detail(levels, layout, tolerance=TOLERANCE) -> ContentDetail:
     1 is tried first (a real HDRI fails there: one reconstruction), then the
     coarsest, then a bisection between the two.
     """
-    probe = np.asarray(levels[0], dtype=np.float64)
-    full = ContentDetail(0, tuple(probe.shape[:2]), 0.0)
+    shape = tuple(np.shape(levels[0])[:2])
+    full = ContentDetail(0, shape, 0.0)
     if layout not in ("cube", "latlong") or len(levels) < 2:
         return full
-    omega = get_layout(layout).solid_angles(probe.shape[:2])
+    omega = get_layout(layout).solid_angles(shape)
     weights = omega / omega.sum()
-    mean_norm = float(np.linalg.norm(np.einsum("hw,hwc->c", weights, probe)))
+    mean_norm = float(np.linalg.norm(np.einsum("hw,hwc->c", weights, levels[0])))
     errors = {}
 
     def passes(index):
-        reconstruction = convert(levels[index], layout, layout, probe.shape[0], samples=1)
+        reconstruction = convert(levels[index], layout, layout, shape[0], samples=1)
         if mean_norm > 0:
             errors[index] = _rms_error(probe, reconstruction, weights, mean_norm)
         else:
@@ -122,6 +122,7 @@ def content_detail(levels, layout, tolerance=TOLERANCE) -> ContentDetail:
     coarsest = len(levels) - 1
     if _sampled_error(levels, layout, weights, mean_norm) > PRECHECK * tolerance:
         return full  # level 1 fails clearly on every STRIDE-th texel already
+    probe = np.asarray(levels[0], dtype=np.float64)
     if not passes(1):
         return full
     if coarsest == 1 or passes(coarsest):
