@@ -41,20 +41,27 @@ import numpy as np
 from .envmap import convert, get_layout
 from .envmap.convert import convert_texels
 
-__all__ = ["TOLERANCE", "ContentDetail", "content_detail", "of_probe"]
+__all__ = ["TOLERANCE", "CONSTANT_SHAPES", "ContentDetail", "content_detail", "of_probe"]
 
 #: Largest RMS difference, relative to the magnitude of the probe's mean colour,
 #: between the probe and a coarser level's reconstruction that stands for it.
 TOLERANCE = 1e-3
 
 
+#: The shape a probe that is one colour stands for, beyond a pyramid that stopped
+#: at an odd size: one texel per cube face, or a one-row lat-long.
+CONSTANT_SHAPES = {"cube": (1, 6), "latlong": (1, 2)}
+
+
 @dataclass(frozen=True)
 class ContentDetail:
     """The coarsest pyramid level that stands for a probe (module doc).
 
-    level: its index (0: the probe itself); shape: its (H, W) in the probe's
-    layout; error: its RMS difference from the probe relative to the probe's
-    mean (0.0 for level 0).
+    level: its index (0: the probe itself; len(levels) when the pyramid stopped
+    at an odd size above one texel and the probe is its mean colour, of shape
+    CONSTANT_SHAPES[layout]); shape: its (H, W) in the probe's layout; error:
+    its RMS difference from the probe relative to the probe's mean (0.0 for
+    level 0).
     """
 
     level: int
@@ -132,7 +139,21 @@ def content_detail(levels, layout, tolerance=TOLERANCE) -> ContentDetail:
         while failed - best > 1:
             middle = (best + failed) // 2
             best, failed = (middle, failed) if passes(middle) else (best, middle)
+    if best == coarsest and levels[best].shape[0] > 1:
+        # The pyramid stopped at an odd size (a 200 px face: 25 px) and still stands
+        # for the probe: is the probe its mean colour, one value per face?
+        constant = _constant_error(probe, weights, mean_norm)
+        if constant <= tolerance:
+            return ContentDetail(len(levels), CONSTANT_SHAPES[layout], constant)
     return ContentDetail(best, tuple(levels[best].shape[:2]), errors[best])
+
+
+def _constant_error(probe, weights, mean_norm):
+    """:func:`content_detail`'s error of the probe's mean colour standing for it."""
+    if mean_norm <= 0:
+        return 0.0 if not np.any(probe) else np.inf
+    mean = np.einsum("hw,hwc->c", weights, probe)
+    return _rms_error(probe, np.broadcast_to(mean, probe.shape), weights, mean_norm)
 
 
 def of_probe(image, layout) -> ContentDetail:

@@ -245,7 +245,7 @@ def stack_height(probe_shape, layout, fixed=None, cap=None,
     else:
         wanted, why = natural, "the probe's own detail"
     rows = stack_rows_below(wanted)
-    if rows != wanted:
+    if rows < wanted:
         why += f", rounded down to {rows} from {wanted} (the level chain halves it)"
     if fixed is None and rows < MIN_STACK_ROWS:
         rows, why = MIN_STACK_ROWS, f"{why}, raised to {MIN_STACK_ROWS}, the least that " \

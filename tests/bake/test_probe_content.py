@@ -44,6 +44,24 @@ def test_a_constant_probe_is_its_coarsest_level():
     assert detail.error < 1e-6
 
 
+def test_a_constant_probe_whose_pyramid_stops_at_an_odd_size_is_one_colour():
+    """A 200 px face's pyramid stops at 25 px (an odd side): a probe of one colour
+    there (as a Cycles capture of Blender's default world is) stands for one texel
+    per face, and its map takes the fewest rows; a smooth sky there keeps the
+    pyramid's level."""
+    probe = np.full((200, 1200, 3), 0.0508, np.float32)
+    levels = pyramid(probe, "cube", "box")
+    assert levels[-1].shape[:2] == (25, 150)
+    detail = probe_content.content_detail(levels, "cube")
+    assert detail.level == len(levels) and detail.shape == probe_content.CONSTANT_SHAPES["cube"]
+    assert detail.error < 1e-6
+    probe_maps.clear_cache()
+    baked = prefilter.prefilter(probe, "ggx:roughness=0.1", "3d", "auto", layout="cube")
+    assert baked.meta["size"] == resolution.MIN_ROWS
+    sky = smooth_sky(200, glow=0.3, sharpness=1.0)
+    assert probe_content.content_detail(pyramid(sky, "cube", "box"), "cube").shape[0] >= 25
+
+
 def test_a_black_probe_is_its_coarsest_level():
     probe = np.zeros((16, 96, 3), np.float32)
     assert probe_content.content_detail(pyramid(probe, "cube", "box"), "cube").level == 4
