@@ -202,6 +202,16 @@ class _Grid:
             self.u = hemisphere_directions(size, kind).reshape(-1, 3)
             self.v = hemisphere_directions(size_h, kind).reshape(-1, 3)
 
+    def radius_keys(self):
+        """(size^2,) int64: a^2 + b^2 for the u texel at column j and row i, a =
+        2 j + 1 - size and b = 2 i + 1 - size (its centre's radius times size,
+        squared), capped at the rim's (size - 1)^2 as hemisphere_directions caps
+        the radius: texels of one key have the same direction up to a rotation
+        about the pole, exactly (one key: one elevation)."""
+        offsets = 2 * np.arange(self.size, dtype=np.int64) + 1 - self.size
+        squares = offsets[:, None] ** 2 + offsets[None, :] ** 2
+        return np.minimum(squares, (self.size - 1) ** 2).ravel()
+
     def pairs(self, u, v):
         """(wi, wo) for every (u row, v column): (len(u), len(v), 3) each."""
         if self.name == "incident-view":
@@ -722,10 +732,66 @@ def _sub_grid(size, count):
     return (axis[:, None] * size + axis[None, :]).ravel()
 
 
+#: Groups of rows whose second member _radial_rows evaluates to check that
+#: the model is invariant under rotations about the normal, as it claims.
+RADIAL_CHECKS = 16
+
+
+def _radial_rows(model, grid, rows, cols):
+    """(representative rows, inverse) where the rows of M depend on the half
+    vector's elevation alone, else None.
+
+    In the half-difference parameterization wi = Rz(phi_h) Ry(theta_h) d and
+    wo is wi reflected about h, so every pair of a row at azimuth phi_h is the
+    phi_h = 0 pair rotated about the normal: an isotropic BRDF (and the
+    horizon test) gives the same value. Rows whose texels lie at one radius of
+    g's map (:meth:`_Grid.radius_keys`, exact integers) are evaluated once, at
+    their first member: M[rows] = M[representatives][inverse] up to the
+    rounding of the rotation (tests compare it with the direct evaluation),
+    from a fraction of the BRDF evaluations (256^2 g texels: 8256 radii).
+    The model's ``isotropic`` flag is checked, not trusted: a second member
+    of RADIAL_CHECKS groups is evaluated too (at ``cols``), and any mismatch
+    beyond rounding evaluates every row."""
+    if grid.name != "half-difference" or not getattr(model, "isotropic", False):
+        return None
+    rows = np.asarray(rows)
+    _, first, inverse = np.unique(grid.radius_keys()[rows], return_index=True,
+                                  return_inverse=True)
+    inverse = inverse.ravel()
+    if len(first) == len(rows):
+        return None
+    last = np.zeros(len(first), np.int64)
+    last[inverse] = np.arange(len(rows))  # the last member of each group
+    shared = np.flatnonzero(last != first)
+    picked = shared[np.linspace(0, len(shared) - 1, min(RADIAL_CHECKS, len(shared)))
+                    .astype(np.int64)]
+    once = _slab_direct(model, grid, rows[first[picked]], cols)
+    again = _slab_direct(model, grid, rows[last[picked]], cols)
+    if not (np.array_equal(once[1], again[1]) and
+            np.allclose(once[0], again[0], rtol=1e-6, atol=1e-9 * np.abs(once[0]).max())):
+        return None
+    return rows[first], inverse
+
+
 def _slab(model, grid, rows, cols, pairs_per_block=1 << 19):
-    """(M[c, rows, cols] float32, valid (rows, cols) float32) evaluated in row
-    blocks of about ``pairs_per_block`` pairs, on every core (NumPy releases the
-    GIL in its loops)."""
+    """The slab M[c, rows, cols] in compact form: (values (3, U, len(cols)) float32,
+    valid (U, len(cols)) float32, inverse (len(rows),) int, representatives (U,)
+    int) with M[:, rows] = values[:, inverse], row ``representatives[u]`` of the
+    grid standing for every row of group u. Rows that differ only in the half
+    vector's azimuth are evaluated once (:func:`_radial_rows`); otherwise U =
+    len(rows), inverse is the identity and representatives are ``rows``."""
+    radial = _radial_rows(model, grid, rows, cols)
+    if radial is None:
+        radial = np.asarray(rows), np.arange(len(rows))
+    representatives, inverse = radial
+    values, valid = _slab_direct(model, grid, representatives, cols, pairs_per_block)
+    return values, valid, inverse, representatives
+
+
+def _slab_direct(model, grid, rows, cols, pairs_per_block=1 << 19):
+    """(M[c, rows, cols] float32, valid (rows, cols) float32) with every row
+    evaluated, in row blocks of about ``pairs_per_block`` pairs, on every core
+    (NumPy releases the GIL in its loops)."""
     values = np.empty((3, len(rows), len(cols)), np.float32)
     valid = np.empty((len(rows), len(cols)), np.float32)
     block = max(1, pairs_per_block // len(cols))
@@ -790,8 +856,13 @@ def _sampled_als(model, grid, terms, progress):
     every_col = np.arange(len(grid.v))
     report(progress, 0.0, f"sampling {len(rows)} x {len(grid.v)} and "
                           f"{len(grid.u)} x {len(cols)} BRDF values")
-    across, across_valid = _slab(model, grid, rows, every_col)  # M[R, :]
-    down, down_valid = _slab(model, grid, every_row, cols)  # M[:, C]
+    # Compact slabs (_slab): equal rows of an isotropic BRDF are held once. A
+    # group's rows share one g row (their least-squares problems are the same),
+    # and in h's fit a group counts as many times as it has rows.
+    across, across_valid, across_groups, across_rows = _slab(model, grid, rows, every_col)
+    down, down_valid, down_groups, _ = _slab(model, grid, every_row, cols)  # M[:, C]
+    across_valid = across_valid * np.bincount(across_groups,
+                                              minlength=len(across_rows))[:, None]
     report(progress, 0.3, "sampled")
     power = np.einsum("crk,rk->ck", across.astype(np.float64) ** 2, across_valid)
     count = np.maximum(across_valid.sum(0), 1.0)
@@ -803,13 +874,14 @@ def _sampled_als(model, grid, terms, progress):
                                                                                    keepdims=True)
     ridge = ALS_RIDGE if terms > 1 else 0.0
     across_t = np.ascontiguousarray(across.transpose(0, 2, 1))
+    across_in_down = down_groups[across_rows]  # each across group's row of the compact g
     for round_ in range(SAMPLED_ROUNDS):
         g = _weighted_rows(down, down_valid, h[:, cols], ridge)
-        h = _weighted_rows(across_t, across_valid.T, g[:, rows], ridge)
+        h = _weighted_rows(across_t, across_valid.T, g[:, across_in_down], ridge)
         report(progress, 0.3 + 0.7 * (round_ + 1) / SAMPLED_ROUNDS,
                f"sampled fit round {round_ + 1}/{SAMPLED_ROUNDS}")
     g = _weighted_rows(down, down_valid, h[:, cols], ridge)
-    return g, h
+    return g[:, down_groups], h
 
 
 # --- error analysis (section 5.2) ---------------------------------------------------

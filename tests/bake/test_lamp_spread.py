@@ -210,3 +210,34 @@ def test_sized_lamps_follow_the_integral_over_the_emitter():
             truth, mask) for sized in (False, True)]
         assert errors[1] <= 0.08, (lamp.kind, errors)
         assert errors[0] >= 8 * errors[1], (lamp.kind, errors)
+
+
+def test_an_isotropic_factor_gathers_a_quadrant_and_mirrors_it(narrow):
+    """GGX's g is its own mirror image across both axes (bake.separable fits one
+    row per radius), so blur_levels gathers the top-left quadrant of each level
+    and mirrors it: every level equals the gather over all of its texels to
+    float32 summation order (1e-5 of the level's peak)."""
+    stacked = np.concatenate(list(narrow.g), axis=-1).astype(np.float64)
+    assert np.array_equal(stacked, stacked[::-1]) and np.array_equal(stacked, stacked[:, ::-1])
+    levels = lamp_spread.blur_levels(narrow)
+    assert levels.count > 4
+    for j, level in enumerate(levels.maps, 1):
+        side = lamp_spread.level_side(SIZE, j)
+        source = lamp_spread._box_reduce(
+            stacked, max(1, SIZE // (lamp_spread.SOURCE_TEXELS * side)))
+        full = lamp_spread.cap_means(source, "xy", side, levels.radii[j - 1])
+        full = np.moveaxis(full.reshape(side, side, 2, 3), 2, 0)
+        np.testing.assert_allclose(level, full, rtol=0, atol=1e-5 * np.abs(full).max())
+
+
+@pytest.mark.parametrize("side", [35, 36])
+def test_a_mirrored_gather_of_odd_and_even_sides_matches_the_full_one(side):
+    """A symmetric source (a Gaussian bump about the pole): the quadrant gather,
+    mirrored, equals the full gather, the middle row and column of an odd side
+    included."""
+    directions = hemisphere_directions(side, "xy")
+    source = np.exp(-((1.0 - directions[..., 2]) / 0.05))[..., None] * [1.0, 0.5, 0.25]
+    for rho in (0.05, 0.3):
+        full = lamp_spread.cap_means(source, "xy", side, rho)
+        mirrored = lamp_spread.cap_means(source, "xy", side, rho, mirrored=True)
+        np.testing.assert_allclose(mirrored, full, rtol=0, atol=1e-5 * np.abs(full).max())

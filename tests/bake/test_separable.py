@@ -202,9 +202,12 @@ def test_the_command_line_writes_factors_and_the_report(tmp_path):
     assert sorted(layers) == ["g0", "g1", "h0", "h1"]
     assert meta["parameterization"] == "gram-schmidt" and meta["terms"] == 2
     # Round trip: the textures and scales in the file rebuild the same factorization.
+    # The fit runs in float32 products (sgemm) whose summation order follows the
+    # BLAS threads of each process: the two runs agree to a few float32 ulps of
+    # the factors' unit scale (1.8e-6 measured on one machine), not bit for bit.
     again = separable.factorize("ward:ax=0.2,ay=0.1,ks=0.5,kd=0.2", "gram-schmidt", "nd", 2, 16)
-    np.testing.assert_allclose(layers["g1"], again.g[1], atol=1e-6)
-    np.testing.assert_allclose(meta["scale_h"], again.scale_h, rtol=1e-6)
+    np.testing.assert_allclose(layers["g1"], again.g[1], atol=1e-5)
+    np.testing.assert_allclose(meta["scale_h"], again.scale_h, rtol=1e-5)
 
     result = run_bake("factorize", "--brdf", "ggx:roughness=0.5", "--report", "--sizes", "8,16",
                       "--terms", "2", "--strata", "20", "--plots", tmp_path / "fig", "-q")
@@ -286,3 +289,60 @@ def test_the_command_line_writes_factors_of_two_sizes(tmp_path):
     assert {k: v.shape[:2] for k, v in parts.items()} == {
         "g0": (32, 32), "g1": (32, 32), "h0": (8, 8), "h1": (8, 8)}
     assert meta["size_h"] == 8 and meta["method"] == "sampled"
+
+
+# --- isotropic BRDFs: one row of M per radius of g's map ----------------------------
+@pytest.mark.parametrize("spec", ["principled:metallic=1,roughness=0.1",
+                                  "principled:roughness=0.4,base_color=0.8/0.3/0.1",
+                                  "ggx:roughness=0.3"])
+def test_an_isotropic_brdf_gives_the_slab_of_the_direct_evaluation(spec):
+    """Rows of one radius (any azimuth of the half vector) hold the same values: the
+    compact slab, expanded, is the slab evaluated row by row, to the rounding of
+    the rotation (1e-9 of the largest value)."""
+    model = brdf.parse(spec)
+    grid = separable._Grid("half-difference", 64, "xy", 16)
+    rows = np.arange(len(grid.u))
+    cols = separable._sub_grid(16, 8)
+    values, valid, inverse, representatives = separable._slab(model, grid, rows, cols)
+    assert len(representatives) < len(rows) / 4  # 64^2 texels: 528 radii (and the rim)
+    direct, direct_valid = separable._slab_direct(model, grid, rows, cols)
+    np.testing.assert_array_equal(valid[inverse], direct_valid)
+    np.testing.assert_allclose(values[:, inverse], direct, rtol=0,
+                               atol=1e-9 * np.abs(direct).max())
+
+
+def test_an_isotropic_fit_is_the_direct_fit_from_fewer_evaluations(monkeypatch):
+    """The sampled fit of Principled metal 0.15 (g 128^2, h 16^2, 2 terms) from
+    the compact slabs equals the fit from every row, within float32 summation
+    order (1e-4 of the factors' scale), from under a quarter of the BRDF
+    evaluations."""
+    evaluated = []
+    direct_slab = separable._slab_direct
+
+    def counting(model, grid, rows, cols, *args):
+        evaluated.append(len(rows) * len(cols))
+        return direct_slab(model, grid, rows, cols, *args)
+
+    monkeypatch.setattr(separable, "_slab_direct", counting)
+    spec = "principled:metallic=1,roughness=0.15"
+    compact = separable.factorize(spec, "half-difference", "sampled", 2, 128, size_h=16)
+    compact_count = sum(evaluated)
+    evaluated.clear()
+    monkeypatch.setattr(separable, "_radial_rows", lambda *args: None)
+    direct = separable.factorize(spec, "half-difference", "sampled", 2, 128, size_h=16)
+    assert compact_count < sum(evaluated) / 4
+    for a, b in ((compact.g, direct.g), (compact.h, direct.h)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-4 * np.abs(b).max())
+    np.testing.assert_allclose(compact.scale_g * compact.scale_h,
+                               direct.scale_g * direct.scale_h, rtol=1e-4)
+
+
+def test_a_brdf_that_only_claims_isotropy_is_evaluated_row_by_row():
+    """a(h) b(d) with a term in h_x changes with the half vector's azimuth; it
+    inherits BRDF.isotropic = True, and the check of _radial_rows catches it."""
+    model = _HalfTimesDifference()
+    assert model.isotropic
+    grid = separable._Grid("half-difference", 32, "xy", 8)
+    assert separable._radial_rows(model, grid, np.arange(len(grid.u)), np.arange(64)) is None
+    assert separable._radial_rows(brdf.parse("ggx:roughness=0.3"), grid,
+                                  np.arange(len(grid.u)), np.arange(64)) is not None
