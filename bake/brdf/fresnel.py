@@ -38,7 +38,9 @@ def schlick(cos_theta, f0):
     """Schlick's approximation F0 + (1 - F0)(1 - cos)^5; f0 scalar or RGB (3,)."""
     c = np.clip(np.abs(np.asarray(cos_theta, dtype=np.float64)), 0.0, 1.0)
     f0 = np.asarray(f0, dtype=np.float64)
-    weight = (1.0 - c) ** 5
+    t = 1.0 - c
+    t2 = t * t
+    weight = t2 * t2 * t  # (1 - c)^5 by products: NumPy's power calls pow() per element
     if f0.ndim:
         weight = weight[..., None]
     return f0 + (1.0 - f0) * weight

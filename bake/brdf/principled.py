@@ -258,8 +258,10 @@ class Principled(BRDF):
         c = np.clip(np.asarray(cos_hv, dtype=np.float64), 0.0, 1.0)
         if self.conductor is not None:
             return fresnel.conductor(c, *self.conductor)
-        c = c[..., None]
-        return np.clip(fresnel.schlick(c[..., 0], self.base) - self.b82 * c * (1.0 - c) ** 6,
+        t = 1.0 - c
+        t3 = t * t * t
+        tail = (c * (t3 * t3))[..., None]  # c (1 - c)^6, by products (not pow() per element)
+        return np.clip(fresnel.schlick(c, self.base) - self.b82 * tail,
                        0.0, 1.0)
 
     def _spec_fss(self):
@@ -268,16 +270,25 @@ class Principled(BRDF):
         s = np.clip((fss_real - f0) / max(1.0 - f0, 1e-12), 0.0, 1.0)
         return self.spec_f0 + (1.0 - self.spec_f0) * s
 
-    def _energy(self, mu, table, fss, always=False, looked=None):
-        """(multiplier of the single-scatter lobe, E + Fms (1 - E) or 1), (..., 3).
-        looked: ``self._table(table, mu)`` when the caller has it."""
-        e, _ = looked if looked is not None else self._table(table, mu)
-        e = np.maximum(e, 1e-6)[..., None]
+    def _multiplier(self, table, fss, looked, always=False):
+        """The multiple-scattering multiplier of the single-scatter lobe, 1 + Fms
+        (1 - E) / E (..., 3), or the scalar 1.0 where none is added (``always``:
+        the coat's, added whatever the main lobe does). looked: ``self._table(table,
+        mu)`` at the view cosines."""
         if not (self.multiscatter or always):
-            one = np.ones(e.shape[:-1] + (3,))
-            return one, one
+            return 1.0
+        e = np.maximum(looked[0], 1e-6)[..., None]
         fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
-        return 1.0 + fms * (1.0 - e) / e, e + fms * (1.0 - e)
+        return 1.0 + fms * ((1.0 - e) / e)
+
+    def _darkening(self, table, fss, looked, always=False):
+        """E + Fms (1 - E) (..., 3), the layer's albedo with multiple scattering over
+        its single-scatter E, or the scalar 1.0 (see :meth:`_multiplier`)."""
+        if not (self.multiscatter or always):
+            return 1.0
+        e = np.maximum(looked[0], 1e-6)[..., None]
+        fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
+        return e + fms * (1.0 - e)
 
     def lower_weights(self, mu, main=None, coat=None):
         """(weight under the coat (..., 3), weight of the diffuse layer (..., 3)) at
@@ -285,15 +296,22 @@ class Principled(BRDF):
         and at the diffuse layer. main, coat: ``self._table`` of the main and coat
         tables at these mu, when the caller has them."""
         mu = np.clip(np.asarray(mu, dtype=np.float64), 0.0, 1.0)
-        weight = np.ones(mu.shape + (3,))
+        shape = mu.shape + (3,)
+        return tuple(np.array(np.broadcast_to(w, shape)) for w in
+                     self._lower_weights(mu, main, coat))
+
+    def _lower_weights(self, mu, main, coat):
+        """:meth:`lower_weights` before broadcasting: each weight a scalar, (..., 1)
+        or (..., 3) (f's inner loop multiplies by them as they are)."""
+        weight = 1.0
         if self.coat > 0.0:
             coat = coat if coat is not None else self._table(self._coat, mu)
             _, s = coat
             fss = dielectric_hemispherical_average(self.coat_ior)
-            _, darkening = self._energy(mu, self._coat, fss, always=True, looked=coat)
+            darkening = self._darkening(self._coat, fss, coat, always=True)
             f0 = float(fresnel.f0_from_ior(self.coat_ior))
             albedo = self.coat * darkening * (f0 + (1.0 - f0) * s)[..., None]
-            weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
+            weight = np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
             if not np.all(self.coat_tint == 1.0):
                 cos_t = np.sqrt(1.0 - (1.0 - mu**2) / self.coat_ior**2)[..., None]
                 tinted = np.power(self.coat_tint, 1.0 / cos_t)
@@ -303,7 +321,7 @@ class Principled(BRDF):
         if self.eta != 1.0 and self.metallic < 1.0:  # (a whole metal: the weight is 0)
             main = main if main is not None else self._table(self._main, mu)
             _, s = main
-            _, darkening = self._energy(mu, self._main, self._spec_fss(), looked=main)
+            darkening = self._darkening(self._main, self._spec_fss(), main)
             albedo = darkening * (self.spec_f0 + (1.0 - self.spec_f0) * s[..., None])
             weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
         return under_coat, weight
@@ -316,30 +334,36 @@ class Principled(BRDF):
         mu = np.clip(wo[..., 2], 0.0, 1.0)
         main = self._table(self._main, mu)  # looked up once for every term below
         coat = self._table(self._coat, mu) if self.coat > 0.0 else None
-        under_coat, diffuse_weight = self.lower_weights(mu, main, coat)
-        total = np.zeros(np.broadcast_shapes(wi.shape, wo.shape)[:-1] + (3,))
+        under_coat, diffuse_weight = self._lower_weights(mu, main, coat)
+        terms = []
         if self.coat > 0.0:
             lobe, cos_hv = self._ggx(wi, wo, self.coat_alpha, self.coat_alpha)
             fss = dielectric_hemispherical_average(self.coat_ior)
-            energy, _ = self._energy(mu, self._coat, fss, always=True, looked=coat)
-            total = total + self.coat * (lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
-                ..., None] * energy
+            energy = self._multiplier(self._coat, fss, coat, always=True)
+            terms.append((self.coat * lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
+                ..., None] * energy)
         lw, lo = self._unrotated(wi, -self.angle), self._unrotated(wo, -self.angle)
         lobe, cos_hv = self._ggx(lw, lo, self.ax, self.ay)
-        c = np.clip(cos_hv, 0.0, 1.0)[..., None]
+        c = np.clip(cos_hv, 0.0, 1.0)
         if self.metallic > 0.0:
-            energy, _ = self._energy(mu, self._main, self._metal_fss(), looked=main)
-            total = total + under_coat * self.metallic * lobe[..., None] * \
-                self.metal_fresnel(c[..., 0]) * energy
-        if self.eta != 1.0:
-            blend = _blend_factor(c[..., 0], self.eta)[..., None]
+            energy = self._multiplier(self._main, self._metal_fss(), main)
+            terms.append(under_coat * (self.metallic * lobe)[..., None] *
+                         self.metal_fresnel(c) * energy)
+        if self.eta != 1.0 and self.metallic < 1.0:  # (a whole metal: weight 0)
+            blend = _blend_factor(c, self.eta)[..., None]
             f_spec = self.spec_f0 + (1.0 - self.spec_f0) * blend
-            energy, _ = self._energy(mu, self._main, self._spec_fss(), looked=main)
-            total = total + under_coat * (1.0 - self.metallic) * lobe[..., None] * f_spec * \
-                energy
-        if self.params["diffuse"] == 1.0:
-            total = total + diffuse_weight * self.base / np.pi
-        return total
+            energy = self._multiplier(self._main, self._spec_fss(), main)
+            terms.append(under_coat * ((1.0 - self.metallic) * lobe)[..., None] * f_spec *
+                         energy)
+        if self.params["diffuse"] == 1.0 and self.metallic < 1.0:  # (weight 0 under metal)
+            terms.append(diffuse_weight * (self.base / np.pi))
+        shape = np.broadcast_shapes(wi.shape, wo.shape)[:-1] + (3,)
+        if not terms:
+            return np.zeros(shape)
+        total = terms[0]
+        for term in terms[1:]:
+            total = total + term
+        return total if total.shape == shape else np.array(np.broadcast_to(total, shape))
 
     # --- sampling: main lobe, coat lobe and cosine, mixed ----------------------------------
     def _mixture(self):
