@@ -171,13 +171,16 @@ def texel_solid_angles(size, kind="xy"):
     return np.where(r2 < 1.0, (2.0 / size) ** 2 * jacobian, 0.0)
 
 
-def cap_means(source, kind, side, rho, mirrored=False):
+def cap_means(source, kind, side, rho, symmetry=None):
     """(side, side, C): the mean of ``source`` (n, n, C), a hemisphere map, over
     the part above the horizon of a cap of radius ``rho`` (rad) around each
     texel centre of a side x side map of the same kind (n a multiple of side).
-    ``mirrored``: the caller knows ``source`` equals its own mirror images
-    across both axes (an isotropic BRDF's g, bake.separable), so are the means:
-    only the top-left quadrant is gathered (a quarter of the work) and mirrored.
+    ``symmetry`` (:func:`map_symmetry`), which the means share with the source:
+    "mirror" (the source equals its mirror images across both axes: an
+    isotropic BRDF's g, bake.separable) gathers the top-left quadrant, a
+    quarter of the work, and mirrors it; "half-turn" (it equals itself turned
+    by 180 degrees about the centre: an anisotropic elliptical lobe's g) gathers
+    the top half and turns it; None gathers every texel.
 
     A sum over the source's texels weighed by their solid angle and by how much
     of each the cap covers (a ramp one texel wide across the cap's edge, in
@@ -190,8 +193,12 @@ def cap_means(source, kind, side, rho, mirrored=False):
     directions = hemisphere_directions(n, kind).astype(np.float32)
     weights = texel_solid_angles(n, kind).astype(np.float32)
     centres = hemisphere_directions(side, kind).astype(np.float32)
-    gathered = (side + 1) // 2 if mirrored else side  # output rows and columns gathered
-    centres = centres[:gathered, :gathered]
+    if symmetry not in (None, "mirror", "half-turn"):
+        raise ValueError(f"unknown symmetry {symmetry!r}")
+    half = (side + 1) // 2
+    gathered = half if symmetry else side  # output rows gathered
+    across = half if symmetry == "mirror" else side  # and columns
+    centres = centres[:gathered, :across]
     reach = int(math.ceil(rho * n / 2.0)) + 1  # the map never stretches an angle
     pad = reach + step
 
@@ -201,41 +208,57 @@ def cap_means(source, kind, side, rho, mirrored=False):
     directions, weights, values = padded(directions), padded(weights), padded(
         source.astype(np.float32))
     slope = 1.0 / (math.sin(rho) * np.sqrt(np.maximum(weights, 1e-30)))
-    total = np.zeros((gathered, gathered, source.shape[-1]), np.float32)
-    covered = np.zeros((gathered, gathered), np.float32)
+    total = np.zeros((gathered, across, source.shape[-1]), np.float32)
+    covered = np.zeros((gathered, across), np.float32)
     cos_rho, middle, limit = math.cos(rho), (step - 1) / 2.0, (reach + step) ** 2
     a, b = np.meshgrid(np.arange(-reach, reach + step), np.arange(-reach, reach + step),
                        indexing="ij")
     near = (a - middle) ** 2 + (b - middle) ** 2 <= limit
     a, b = a[near], b[near]  # source offsets from each output texel's first source texel
-    if gathered * gathered >= SLICED_OUTPUTS:
+    if gathered * across >= SLICED_OUTPUTS:
         for a_, b_ in zip(a.tolist(), b.tolist(), strict=True):  # strided views, one offset
             rows = slice(pad + a_, pad + a_ + step * gathered, step)
-            cols = slice(pad + b_, pad + b_ + step * gathered, step)
+            cols = slice(pad + b_, pad + b_ + step * across, step)
             cos_gamma = np.einsum("ijk,ijk->ij", directions[rows, cols], centres)
             weight = np.clip((cos_gamma - cos_rho) * slope[rows, cols] + 0.5, 0.0, 1.0) * \
                 weights[rows, cols]
             total += weight[..., None] * values[rows, cols]
             covered += weight
     else:  # small levels: their caps span thousands of offsets; NumPy's loops, not Python's
-        texels = step * np.arange(gathered)
-        batch = max(1, (1 << 20) // (gathered * gathered * (source.shape[-1] + 4)))
+        batch = max(1, (1 << 20) // (gathered * across * (source.shape[-1] + 4)))
         for start in range(0, len(a), batch):
-            rows = (pad + a[start:start + batch, None] + texels)[:, :, None]  # (B, g, 1)
-            cols = (pad + b[start:start + batch, None] + texels)[:, None, :]  # (B, 1, g)
+            rows = pad + a[start:start + batch, None] + step * np.arange(gathered)
+            cols = pad + b[start:start + batch, None] + step * np.arange(across)
+            rows, cols = rows[:, :, None], cols[:, None, :]  # (B, gathered, 1), (B, 1, across)
             cos_gamma = np.einsum("oijk,ijk->oij", directions[rows, cols], centres)
             weight = np.clip((cos_gamma - cos_rho) * slope[rows, cols] + 0.5, 0.0, 1.0) * \
                 weights[rows, cols]
             total += np.einsum("oij,oijc->ijc", weight, values[rows, cols])
             covered += weight.sum(axis=0)
     means = total / np.maximum(covered, 1e-30)[..., None]
-    if not mirrored:
+    if symmetry is None:
         return means
     out = np.empty((side, side) + means.shape[2:], means.dtype)
-    out[:gathered, :gathered] = means
-    out[:gathered, side - gathered:] = means[:, ::-1]
-    out[side - gathered:] = out[:gathered][::-1]
+    if symmetry == "mirror":
+        out[:half, :half] = means
+        out[:half, side - half:] = means[:, ::-1]
+        out[side - half:] = out[:half][::-1]
+    else:
+        out[:half] = means
+        out[side - half:] = means[::-1, ::-1]
     return out
+
+
+def map_symmetry(source):
+    """The symmetry of a hemisphere map (n, n, C) that :func:`cap_means` can use:
+    "mirror" if it equals its mirror images across both axes exactly,
+    "half-turn" if it equals itself turned by 180 degrees, else None."""
+    source = np.asarray(source)
+    if np.array_equal(source, source[::-1]) and np.array_equal(source, source[:, ::-1]):
+        return "mirror"
+    if np.array_equal(source, source[::-1, ::-1]):
+        return "half-turn"
+    return None
 
 
 def blur_levels(factorization, per_octave=PER_OCTAVE, progress=None) -> Levels:
@@ -247,8 +270,7 @@ def blur_levels(factorization, per_octave=PER_OCTAVE, progress=None) -> Levels:
         return Levels([], [], 0.0, per_octave)
     n, terms = f.size, f.terms
     stacked = np.concatenate(list(f.g), axis=-1).astype(np.float64)  # (n, n, 3K)
-    mirrored = bool(np.array_equal(stacked, stacked[::-1]) and
-                    np.array_equal(stacked, stacked[:, ::-1]))  # and so is every level
+    symmetry = map_symmetry(stacked)  # so is every level's (box reduction keeps it)
     radii, maps = [], []
     count = level_count(n, f.kind, per_octave)
     first = first_radius(n, f.kind)
@@ -256,7 +278,7 @@ def blur_levels(factorization, per_octave=PER_OCTAVE, progress=None) -> Levels:
         side = level_side(n, j, per_octave)
         rho = level_radius(first, j, per_octave)
         source = _box_reduce(stacked, max(1, n // (SOURCE_TEXELS * side)))
-        means = cap_means(source, f.kind, side, rho, mirrored).reshape(side, side, terms, 3)
+        means = cap_means(source, f.kind, side, rho, symmetry).reshape(side, side, terms, 3)
         maps.append(np.ascontiguousarray(np.moveaxis(means, 2, 0)).astype(np.float32))
         radii.append(rho)
         if progress is not None:

@@ -732,38 +732,51 @@ def _sub_grid(size, count):
     return (axis[:, None] * size + axis[None, :]).ravel()
 
 
-#: Groups of rows whose second member _radial_rows evaluates to check that
-#: the model is invariant under rotations about the normal, as it claims.
-RADIAL_CHECKS = 16
+#: Groups of rows whose second member _shared_rows evaluates to check that
+#: the model has the symmetry it is assumed to have.
+SHARED_ROW_CHECKS = 16
 
 
-def _radial_rows(model, grid, rows, cols):
-    """(representative rows, inverse) where the rows of M depend on the half
-    vector's elevation alone, else None.
+def _shared_rows(model, grid, rows, cols):
+    """(representative rows, inverse) where rows of M repeat by a symmetry of
+    the model, else None.
 
     In the half-difference parameterization wi = Rz(phi_h) Ry(theta_h) d and
     wo is wi reflected about h, so every pair of a row at azimuth phi_h is the
-    phi_h = 0 pair rotated about the normal: an isotropic BRDF (and the
-    horizon test) gives the same value. Rows whose texels lie at one radius of
-    g's map (:meth:`_Grid.radius_keys`, exact integers) are evaluated once, at
-    their first member: M[rows] = M[representatives][inverse] up to the
-    rounding of the rotation (tests compare it with the direct evaluation),
-    from a fraction of the BRDF evaluations (256^2 g texels: 8256 radii).
-    The model's ``isotropic`` flag is checked, not trusted: a second member
-    of RADIAL_CHECKS groups is evaluated too (at ``cols``), and any mismatch
-    beyond rounding evaluates every row."""
-    if grid.name != "half-difference" or not getattr(model, "isotropic", False):
+    phi_h = 0 pair rotated about the normal by phi_h:
+
+    - an isotropic BRDF (and the horizon test) gives the same value: rows whose
+      texels lie at one radius of g's map (:meth:`_Grid.radius_keys`, exact
+      integers) are equal (256^2 g texels: 8256 radii);
+    - any other BRDF that a half turn about the normal leaves unchanged (every
+      elliptical anisotropic lobe: GGX, Beckmann, Ashikhmin-Shirley, Ward,
+      Principled, whatever their rotation) gives equal rows at h and at its
+      half-turn partner (-h_x, -h_y, h_z), the texel mirrored through the map's
+      centre: half the rows.
+
+    Each group is evaluated once, at its first member: M[rows] =
+    M[representatives][inverse] up to the rounding of the rotation (tests
+    compare it with the direct evaluation). The symmetry is checked, not
+    assumed from the model's ``isotropic`` flag alone: a second member of
+    SHARED_ROW_CHECKS groups is evaluated too (at ``cols``), and any mismatch
+    beyond rounding (a tabulated anisotropic BRDF, a model that only claims
+    isotropy) evaluates every row."""
+    if grid.name != "half-difference":
         return None
     rows = np.asarray(rows)
-    _, first, inverse = np.unique(grid.radius_keys()[rows], return_index=True,
-                                  return_inverse=True)
+    if getattr(model, "isotropic", False):
+        keys = grid.radius_keys()
+    else:
+        texels = np.arange(grid.size * grid.size)
+        keys = np.minimum(texels, texels[::-1])  # a texel and its half-turn partner
+    _, first, inverse = np.unique(keys[rows], return_index=True, return_inverse=True)
     inverse = inverse.ravel()
     if len(first) == len(rows):
         return None
     last = np.zeros(len(first), np.int64)
     last[inverse] = np.arange(len(rows))  # the last member of each group
     shared = np.flatnonzero(last != first)
-    picked = shared[np.linspace(0, len(shared) - 1, min(RADIAL_CHECKS, len(shared)))
+    picked = shared[np.linspace(0, len(shared) - 1, min(SHARED_ROW_CHECKS, len(shared)))
                     .astype(np.int64)]
     once = _slab_direct(model, grid, rows[first[picked]], cols)
     again = _slab_direct(model, grid, rows[last[picked]], cols)
@@ -777,13 +790,13 @@ def _slab(model, grid, rows, cols, pairs_per_block=1 << 19):
     """The slab M[c, rows, cols] in compact form: (values (3, U, len(cols)) float32,
     valid (U, len(cols)) float32, inverse (len(rows),) int, representatives (U,)
     int) with M[:, rows] = values[:, inverse], row ``representatives[u]`` of the
-    grid standing for every row of group u. Rows that differ only in the half
-    vector's azimuth are evaluated once (:func:`_radial_rows`); otherwise U =
-    len(rows), inverse is the identity and representatives are ``rows``."""
-    radial = _radial_rows(model, grid, rows, cols)
-    if radial is None:
-        radial = np.asarray(rows), np.arange(len(rows))
-    representatives, inverse = radial
+    grid standing for every row of group u. Rows that a symmetry of the model
+    repeats are evaluated once (:func:`_shared_rows`); otherwise U = len(rows),
+    inverse is the identity and representatives are ``rows``."""
+    shared = _shared_rows(model, grid, rows, cols)
+    if shared is None:
+        shared = np.asarray(rows), np.arange(len(rows))
+    representatives, inverse = shared
     values, valid = _slab_direct(model, grid, representatives, cols, pairs_per_block)
     return values, valid, inverse, representatives
 

@@ -328,7 +328,7 @@ def test_an_isotropic_fit_is_the_direct_fit_from_fewer_evaluations(monkeypatch):
     compact = separable.factorize(spec, "half-difference", "sampled", 2, 128, size_h=16)
     compact_count = sum(evaluated)
     evaluated.clear()
-    monkeypatch.setattr(separable, "_radial_rows", lambda *args: None)
+    monkeypatch.setattr(separable, "_shared_rows", lambda *args: None)
     direct = separable.factorize(spec, "half-difference", "sampled", 2, 128, size_h=16)
     assert compact_count < sum(evaluated) / 4
     for a, b in ((compact.g, direct.g), (compact.h, direct.h)):
@@ -337,12 +337,44 @@ def test_an_isotropic_fit_is_the_direct_fit_from_fewer_evaluations(monkeypatch):
                                direct.scale_g * direct.scale_h, rtol=1e-4)
 
 
+@pytest.mark.parametrize("spec", ["principled:metallic=1,roughness=0.3,anisotropy=0.8",
+                                  "ggx:roughness=0.2,anisotropy=0.6,rotation=0.15",
+                                  "ward:ax=0.2,ay=0.1,ks=0.5,kd=0.2"])
+def test_an_anisotropic_lobe_shares_rows_with_its_half_turn_partner(spec):
+    """An elliptical lobe is unchanged by a half turn about the normal: the row of
+    h and that of (-h_x, -h_y, h_z) are equal, half the rows are evaluated, and
+    the expanded slab is the direct one to rounding."""
+    model = brdf.parse(spec)
+    assert not model.isotropic
+    grid = separable._Grid("half-difference", 32, "xy", 8)
+    rows = np.arange(len(grid.u))
+    cols = separable._sub_grid(8, 8)
+    values, valid, inverse, representatives = separable._slab(model, grid, rows, cols)
+    assert len(representatives) == len(rows) // 2
+    direct, direct_valid = separable._slab_direct(model, grid, rows, cols)
+    np.testing.assert_array_equal(valid[inverse], direct_valid)
+    np.testing.assert_allclose(values[:, inverse], direct, rtol=0,
+                               atol=1e-9 * np.abs(direct).max())
+
+
+def test_a_table_without_the_symmetry_is_evaluated_row_by_row():
+    """A tabulated anisotropic BRDF whose values change under a half turn: the
+    check evaluates every row."""
+    from bake.brdf.tabulated import AnisotropicTable
+
+    thetas, phis = 6, 8
+    rng = np.random.default_rng(4)
+    table = AnisotropicTable(rng.uniform(0.1, 1.0, (thetas, phis, thetas, phis, 3)))
+    grid = separable._Grid("half-difference", 16, "xy", 8)
+    assert separable._shared_rows(table, grid, np.arange(len(grid.u)), np.arange(64)) is None
+
+
 def test_a_brdf_that_only_claims_isotropy_is_evaluated_row_by_row():
     """a(h) b(d) with a term in h_x changes with the half vector's azimuth; it
-    inherits BRDF.isotropic = True, and the check of _radial_rows catches it."""
+    inherits BRDF.isotropic = True, and the check of _shared_rows catches it."""
     model = _HalfTimesDifference()
     assert model.isotropic
     grid = separable._Grid("half-difference", 32, "xy", 8)
-    assert separable._radial_rows(model, grid, np.arange(len(grid.u)), np.arange(64)) is None
-    assert separable._radial_rows(brdf.parse("ggx:roughness=0.3"), grid,
+    assert separable._shared_rows(model, grid, np.arange(len(grid.u)), np.arange(64)) is None
+    assert separable._shared_rows(brdf.parse("ggx:roughness=0.3"), grid,
                                   np.arange(len(grid.u)), np.arange(64)) is not None
