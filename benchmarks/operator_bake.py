@@ -22,8 +22,16 @@ of 128 px faces in sunset.exr:
   Roughness 0.5, Base Color varied) in one call, against single bakes of two of
   them: materials that share a lobe shape share its fit and its filtering.
 
+- with ``--default-scene``: Blender's default scene instead (its Light, its
+  grey World, the Cube replaced by the sphere, the probe at Glossy's defaults:
+  Render Scene, Auto), where every bake also factors the material's BRDF for
+  the lamp (bake.separable, bake.lamp_spread): each single bake with the
+  material's Lamps on and, in a second fresh process, off, so the difference
+  is what the lamp factors cost, measured in the same run. Anisotropic metal
+  (Roughness 0.3, Anisotropic 0.8) is added.
+
     .venv/bin/python benchmarks/operator_bake.py [--hdri sunset.exr] [--face 128]
-        [--singles-only | --colours-only]
+        [--singles-only | --colours-only | --default-scene]
 
 Times are wall-clock seconds of the operator call alone (the capture before it
 is not counted); no timing is asserted anywhere.
@@ -80,6 +88,37 @@ methods = [slot.material.glossy.method_used() for slot in sphere.material_slots]
 print(json.dumps({"seconds": elapsed, "outcome": [capture, outcome], "methods": methods}))
 '''
 
+DEFAULT_SCENE = r'''
+import json, sys, time
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+import _checkout  # noqa
+import bpy
+import glossy
+from _operators import run, shader_material
+
+work, inputs, lamps = Path(sys.argv[2]), json.loads(sys.argv[3]), sys.argv[4] == "1"
+bpy.ops.wm.read_homefile(use_empty=False)  # the default scene: Cube, Light, Camera, World
+glossy.register()
+scene = bpy.context.scene
+bpy.ops.wm.save_as_mainfile(filepath=str(work / "scene.blend"))
+bpy.data.objects.remove(bpy.data.objects["Cube"])
+bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
+sphere = bpy.context.object
+material, tree, node = shader_material("Material")
+for name, value in inputs.items():
+    node.inputs[name].default_value = value
+material.glossy.lamps = lamps
+sphere.data.materials.append(material)
+capture = run(bpy.ops.glossy.capture_probes)
+start = time.perf_counter()
+outcome = run(bpy.ops.glossy.bake_materials)
+elapsed = time.perf_counter() - start
+print(json.dumps({"seconds": elapsed, "outcome": [capture, outcome],
+                  "methods": [material.glossy.method_used()],
+                  "lights": [o.type for o in scene.objects if o.type == "LIGHT"]}))
+'''
+
 PRINCIPLED = "ShaderNodeBsdfPrincipled"
 SINGLES = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.3, 0.6, 1.0)] + [(PRINCIPLED, 0.5, 0.0)]
 EIGHT = [(PRINCIPLED, r, 1.0) for r in (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)]
@@ -106,12 +145,44 @@ def hdri_path(hdri):
 
 def bake(materials, hdri, face):
     """(seconds, methods) of one glossy.bake_materials call in a fresh process."""
+    return _run_scene(SCENE, [str(hdri_path(hdri)), "{tmp}", str(face),
+                              json.dumps(materials)])[:2]
+
+
+#: The default scene's materials: node inputs of a Principled BSDF.
+DEFAULT_SCENE_MATERIALS = [
+    ("Principled metal, Roughness 0.1", {"Metallic": 1.0, "Roughness": 0.1}),
+    ("Principled metal, Roughness 0.5", {"Metallic": 1.0, "Roughness": 0.5}),
+    ("Blender's default material", {}),
+    ("Anisotropic metal 0.3, Anisotropic 0.8",
+     {"Metallic": 1.0, "Roughness": 0.3, "Anisotropic": 0.8}),
+]
+
+
+def default_scene():
+    """Single bakes in Blender's default scene, with and without lamp factors."""
+    print("glossy.bake_materials in Blender's default scene (its Light and grey World, "
+          "the Cube replaced by a sphere; probe: Render Scene, Auto), caches cold:",
+          flush=True)
+    for name, inputs in DEFAULT_SCENE_MATERIALS:
+        seconds = {}
+        for lamps in (True, False):
+            seconds[lamps], methods, lights = _run_scene(
+                DEFAULT_SCENE, ["{tmp}", json.dumps(inputs), "1" if lamps else "0"])
+        print(f"  {name:40s} {seconds[True]:6.2f} s with the lamp's factors, "
+              f"{seconds[False]:5.2f} s without ({methods[0]}; {len(lights)} lamp; "
+              f"factors {seconds[True] - seconds[False]:.2f} s)", flush=True)
+
+
+def _run_scene(script_text, arguments):
+    """The JSON row (seconds, methods[, ...]) a scene script prints, run in a fresh
+    process; "{tmp}" in ``arguments`` is its temporary folder."""
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp) / "scene.py"
-        script.write_text(SCENE)
+        script.write_text(script_text)
         result = subprocess.run(
             [sys.executable, str(script), str(ROOT / "tests" / "blender" / "scripts"),
-             str(hdri_path(hdri)), tmp, str(face), json.dumps(materials)],
+             *[argument.replace("{tmp}", tmp) for argument in arguments]],
             capture_output=True, text=True)
         rows = [line for line in result.stdout.splitlines() if line.startswith("{")]
         if result.returncode or not rows:
@@ -120,7 +191,7 @@ def bake(materials, hdri, face):
         for outcome, message in row["outcome"]:
             if outcome != ["FINISHED"]:
                 sys.exit(f"an operator did not finish: {outcome} {message}")
-        return row["seconds"], row["methods"]
+        return row["seconds"], row["methods"], row.get("lights", [])
 
 
 def main():
@@ -132,7 +203,11 @@ def main():
                         help="the single bakes only (not the eight)")
     parser.add_argument("--colours-only", action="store_true",
                         help="the eight colours of the default material only")
+    parser.add_argument("--default-scene", action="store_true",
+                        help="Blender's default scene, with and without lamp factors")
     args = parser.parse_args()
+    if args.default_scene:
+        return default_scene()
     if args.colours_only:
         return colours(args)
     print(f"glossy.bake_materials, one sphere, World Only probe of {args.face} px faces in "
