@@ -79,6 +79,35 @@ def dielectric_hemispherical_average(eta: float) -> float:
     return float(2.0 * np.sum(w * fresnel.dielectric(mu, float(eta)) * mu))
 
 
+def _channel(value, k):
+    """Channel k of a factor that is a scalar, (..., 1) or (..., 3); a multiplier's
+    (Fms (3,), q (...)) parts give 1 + Fms_k q."""
+    if isinstance(value, tuple):
+        if isinstance(value[0], str):  # ("darkening", Fms, E)
+            _, fms, e = value
+            return e + fms[k] * (1.0 - e)
+        fms, q = value
+        return 1.0 + fms[k] * q
+    if np.ndim(value) == 0:
+        return value
+    return value[..., 0] if value.shape[-1] == 1 else value[..., k]
+
+
+def _channel_max(channel):
+    """The largest of channel(0), channel(1), channel(2) (...), element by element
+    (the (..., 3) array's max over its last axis, without building it)."""
+    return np.maximum(np.maximum(channel(0), channel(1)), channel(2))
+
+
+def _times(a, b):
+    """a * b, skipping a product with the scalar 1.0 (the same value)."""
+    if isinstance(a, float) and a == 1.0:
+        return b
+    if isinstance(b, float) and b == 1.0:
+        return a
+    return a * b
+
+
 def _blend_factor(cos_hv, eta):
     """saturate((F_real - F0) / (1 - F0)): the generalized-Schlick blend of Cycles'
     exponent < 0 case (the real dielectric curve rescaled to F0 ... 1)."""
@@ -270,25 +299,14 @@ class Principled(BRDF):
         s = np.clip((fss_real - f0) / max(1.0 - f0, 1e-12), 0.0, 1.0)
         return self.spec_f0 + (1.0 - self.spec_f0) * s
 
-    def _multiplier(self, table, fss, looked, always=False):
-        """The multiple-scattering multiplier of the single-scatter lobe, 1 + Fms
-        (1 - E) / E (..., 3), or the scalar 1.0 where none is added (``always``:
-        the coat's, added whatever the main lobe does). looked: ``self._table(table,
-        mu)`` at the view cosines."""
-        if not (self.multiscatter or always):
-            return 1.0
-        e = np.maximum(looked[0], 1e-6)[..., None]
-        fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
-        return 1.0 + fms * ((1.0 - e) / e)
-
     def _darkening(self, table, fss, looked, always=False):
-        """E + Fms (1 - E) (..., 3), the layer's albedo with multiple scattering over
-        its single-scatter E, or the scalar 1.0 (see :meth:`_multiplier`)."""
+        """E + Fms (1 - E), the layer's albedo with multiple scattering over its
+        single-scatter E, as (Fms (3,), E (...)) for :func:`_channel` (channel k:
+        E + Fms_k (1 - E)), or the scalar 1.0 (see :meth:`_multiplier_parts`)."""
         if not (self.multiscatter or always):
             return 1.0
-        e = np.maximum(looked[0], 1e-6)[..., None]
-        fms = self._fms(np.broadcast_to(fss, (3,)), table[3])
-        return e + fms * (1.0 - e)
+        e = np.maximum(looked[0], 1e-6)
+        return "darkening", self._fms(np.broadcast_to(fss, (3,)), table[3]), e
 
     def lower_weights(self, mu, main=None, coat=None):
         """(weight under the coat (..., 3), weight of the diffuse layer (..., 3)) at
@@ -310,8 +328,10 @@ class Principled(BRDF):
             fss = dielectric_hemispherical_average(self.coat_ior)
             darkening = self._darkening(self._coat, fss, coat, always=True)
             f0 = float(fresnel.f0_from_ior(self.coat_ior))
-            albedo = self.coat * darkening * (f0 + (1.0 - f0) * s)[..., None]
-            weight = np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
+            # max over channels of coat darkening (f0 + (1 - f0) s)[..., None]
+            albedo = _channel_max(lambda k: (self.coat * _channel(darkening, k)) *
+                                  (f0 + (1.0 - f0) * s))
+            weight = np.clip(1.0 - albedo, 0.0, 1.0)[..., None]
             if not np.all(self.coat_tint == 1.0):
                 cos_t = np.sqrt(1.0 - (1.0 - mu**2) / self.coat_ior**2)[..., None]
                 tinted = np.power(self.coat_tint, 1.0 / cos_t)
@@ -322,8 +342,11 @@ class Principled(BRDF):
             main = main if main is not None else self._table(self._main, mu)
             _, s = main
             darkening = self._darkening(self._main, self._spec_fss(), main)
-            albedo = darkening * (self.spec_f0 + (1.0 - self.spec_f0) * s[..., None])
-            weight = weight * np.clip(1.0 - albedo.max(axis=-1, keepdims=True), 0.0, 1.0)
+            f0 = self.spec_f0
+            # max over channels of darkening (spec_f0 + (1 - spec_f0) s[..., None])
+            albedo = _channel_max(lambda k: _times(_channel(darkening, k),
+                                                   f0[k] + (1.0 - f0[k]) * s))
+            weight = weight * np.clip(1.0 - albedo, 0.0, 1.0)[..., None]
         return under_coat, weight
 
     def diffuse_colour(self):
@@ -331,39 +354,78 @@ class Principled(BRDF):
         return self.base.copy()
 
     def _f(self, wi, wo):
+        # Every term is a per-pair scalar (...) times per-channel constants: it is
+        # summed channel by channel into the (..., 3) result, each channel a run of
+        # long 1D loops (NumPy's broadcast of (..., 1) against (3,) runs an inner
+        # loop of 3, several times slower), in the order the (..., 3) expressions
+        # in the comments give, so the values are theirs to the last bit.
         mu = np.clip(wo[..., 2], 0.0, 1.0)
         main = self._table(self._main, mu)  # looked up once for every term below
         coat = self._table(self._coat, mu) if self.coat > 0.0 else None
         under_coat, diffuse_weight = self._lower_weights(mu, main, coat)
-        terms = []
+        shape = np.broadcast_shapes(wi.shape, wo.shape)[:-1]
+        parts = []  # (per-pair factor, [per-channel callables]) in the order summed
         if self.coat > 0.0:
             lobe, cos_hv = self._ggx(wi, wo, self.coat_alpha, self.coat_alpha)
             fss = dielectric_hemispherical_average(self.coat_ior)
-            energy = self._multiplier(self._coat, fss, coat, always=True)
-            terms.append((self.coat * lobe * fresnel.dielectric(cos_hv, self.coat_ior))[
-                ..., None] * energy)
+            # (coat lobe F_coat)[..., None] * (1 + Fms (1 - E) / E)
+            weighted = self.coat * lobe * fresnel.dielectric(cos_hv, self.coat_ior)
+            energy = self._multiplier_parts(self._coat, fss, coat, always=True)
+            parts.append(lambda k, w=weighted, m=energy: _times(w, _channel(m, k)))
         lw, lo = self._unrotated(wi, -self.angle), self._unrotated(wo, -self.angle)
         lobe, cos_hv = self._ggx(lw, lo, self.ax, self.ay)
         c = np.clip(cos_hv, 0.0, 1.0)
         if self.metallic > 0.0:
-            energy = self._multiplier(self._main, self._metal_fss(), main)
-            terms.append(under_coat * (self.metallic * lobe)[..., None] *
-                         self.metal_fresnel(c) * energy)
+            # under_coat * (metallic lobe)[..., None] * metal_fresnel(c) * multiplier
+            energy = self._multiplier_parts(self._main, self._metal_fss(), main)
+            fresnel_channel = self._metal_fresnel_channels(c)
+            weighted = self.metallic * lobe
+            parts.append(lambda k, w=weighted, m=energy, f=fresnel_channel: _times(
+                _times(_times(_channel(under_coat, k), w), f(k)), _channel(m, k)))
         if self.eta != 1.0 and self.metallic < 1.0:  # (a whole metal: weight 0)
-            blend = _blend_factor(c, self.eta)[..., None]
-            f_spec = self.spec_f0 + (1.0 - self.spec_f0) * blend
-            energy = self._multiplier(self._main, self._spec_fss(), main)
-            terms.append(under_coat * ((1.0 - self.metallic) * lobe)[..., None] * f_spec *
-                         energy)
+            # under_coat * ((1 - metallic) lobe)[..., None] * f_spec * multiplier
+            blend = _blend_factor(c, self.eta)
+            energy = self._multiplier_parts(self._main, self._spec_fss(), main)
+            weighted = (1.0 - self.metallic) * lobe
+            f0 = self.spec_f0
+            parts.append(lambda k, w=weighted, m=energy, b=blend: _times(_times(_times(
+                _channel(under_coat, k), w), f0[k] + (1.0 - f0[k]) * b), _channel(m, k)))
         if self.params["diffuse"] == 1.0 and self.metallic < 1.0:  # (weight 0 under metal)
-            terms.append(diffuse_weight * (self.base / np.pi))
-        shape = np.broadcast_shapes(wi.shape, wo.shape)[:-1] + (3,)
-        if not terms:
-            return np.zeros(shape)
-        total = terms[0]
-        for term in terms[1:]:
-            total = total + term
-        return total if total.shape == shape else np.array(np.broadcast_to(total, shape))
+            albedo = self.base / np.pi
+            parts.append(lambda k: _times(_channel(diffuse_weight, k), albedo[k]))
+        total = np.zeros(shape + (3,))
+        if not parts:
+            return total
+        for k in range(3):
+            value = parts[0](k)
+            for part in parts[1:]:
+                value = value + part(k)
+            total[..., k] = value
+        return total
+
+    def _multiplier_parts(self, table, fss, looked, always=False):
+        """The multiple-scattering multiplier of the single-scatter lobe, 1 + Fms
+        (1 - E) / E, as (Fms (3,), (1 - E) / E (...)) for :func:`_channel`
+        (channel k: 1 + Fms_k (1 - E) / E), or the scalar 1.0 where none is added
+        (``always``: the coat's, added whatever the main lobe does). looked:
+        ``self._table(table, mu)`` at the view cosines."""
+        if not (self.multiscatter or always):
+            return 1.0
+        e = np.maximum(looked[0], 1e-6)
+        return self._fms(np.broadcast_to(fss, (3,)), table[3]), (1.0 - e) / e
+
+    def _metal_fresnel_channels(self, c):
+        """k -> channel k (...) of :meth:`metal_fresnel` at clipped cosines c (...)."""
+        if self.conductor is not None:
+            values = fresnel.conductor(c, *self.conductor)
+            return lambda k: values[..., k]
+        t = 1.0 - c
+        t2 = t * t
+        t5 = t2 * t2 * t
+        t3 = t * t * t
+        tail = c * (t3 * t3)
+        base, b82 = self.base, self.b82
+        return lambda k: np.clip(base[k] + (1.0 - base[k]) * t5 - b82[k] * tail, 0.0, 1.0)
 
     # --- sampling: main lobe, coat lobe and cosine, mixed ----------------------------------
     def _mixture(self):
