@@ -47,6 +47,8 @@ level are taken at it.
 """
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -271,18 +273,24 @@ def blur_levels(factorization, per_octave=PER_OCTAVE, progress=None) -> Levels:
     n, terms = f.size, f.terms
     stacked = np.concatenate(list(f.g), axis=-1).astype(np.float64)  # (n, n, 3K)
     symmetry = map_symmetry(stacked)  # so is every level's (box reduction keeps it)
-    radii, maps = [], []
     count = level_count(n, f.kind, per_octave)
     first = first_radius(n, f.kind)
-    for j in range(1, count + 1):
+    radii = [level_radius(first, j, per_octave) for j in range(1, count + 1)]
+
+    def level(j):
         side = level_side(n, j, per_octave)
-        rho = level_radius(first, j, per_octave)
         source = _box_reduce(stacked, max(1, n // (SOURCE_TEXELS * side)))
-        means = cap_means(source, f.kind, side, rho, symmetry).reshape(side, side, terms, 3)
-        maps.append(np.ascontiguousarray(np.moveaxis(means, 2, 0)).astype(np.float32))
-        radii.append(rho)
-        if progress is not None:
-            progress(j / count, f"lamp factors: cap level {j} of {count}")
+        means = cap_means(source, f.kind, side, radii[j - 1], symmetry)
+        means = means.reshape(side, side, terms, 3)
+        return np.ascontiguousarray(np.moveaxis(means, 2, 0)).astype(np.float32)
+
+    # The levels are independent: one per core (NumPy releases the GIL in its loops).
+    maps = []
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        for j, result in enumerate(pool.map(level, range(1, count + 1)), 1):
+            maps.append(result)
+            if progress is not None:
+                progress(j / count, f"lamp factors: cap level {j} of {count}")
     return Levels(radii, maps, scale, per_octave)
 
 

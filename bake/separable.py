@@ -820,16 +820,21 @@ def _slab_direct(model, grid, rows, cols, pairs_per_block=1 << 19):
     return values, valid
 
 
-def _weighted_rows(values, weights, factors, ridge):
+def _weighted_rows(weighted, weights, factors, ridge):
     """Per channel and row x, argmin over a (K) of sum_c w (M[x, c] - a . F[c])^2
-    (+ ridge): values (3, X, C), weights (X, C), factors (3, C, K) -> (3, X, K)."""
-    terms = factors.shape[-1]
-    out = np.empty((3, values.shape[1], terms), np.float64)
-    for channel in range(3):
-        f = factors[channel].astype(np.float32)
-        normal = (weights @ (f[:, :, None] * f[:, None, :]).reshape(len(f), terms * terms))
-        normal = normal.reshape(-1, terms, terms).astype(np.float64)
-        right = ((weights * values[channel]) @ f).astype(np.float64)
+    (+ ridge): weighted = w M (3, X, C) float32 (the caller forms it once for
+    every round), weights (X, C) float32, factors (3, C, K) -> (3, X, K). The
+    normal matrices of the three channels come from one product with the
+    weights (one pass over them, not three)."""
+    channels, count, terms = factors.shape
+    f = factors.astype(np.float32)
+    outer = (f[:, :, :, None] * f[:, :, None, :]).reshape(channels, count, terms * terms)
+    outer = np.ascontiguousarray(outer.transpose(1, 0, 2)).reshape(count, -1)
+    normals = (weights @ outer).reshape(-1, channels, terms, terms).astype(np.float64)
+    out = np.empty((channels, weighted.shape[1], terms), np.float64)
+    for channel in range(channels):
+        normal = normals[:, channel]
+        right = (weighted[channel] @ f[channel]).astype(np.float64)
         scale = np.trace(normal, axis1=1, axis2=2)[:, None, None] / terms
         normal = normal + (ridge * scale + 1e-30) * np.eye(terms)
         out[channel] = _solve_small(normal, right)
@@ -869,7 +874,7 @@ def _sampled_als(model, grid, terms, progress):
     every_col = np.arange(len(grid.v))
     report(progress, 0.0, f"sampling {len(rows)} x {len(grid.v)} and "
                           f"{len(grid.u)} x {len(cols)} BRDF values")
-    # Compact slabs (_slab): equal rows of an isotropic BRDF are held once. A
+    # Compact slabs (_slab): rows that a symmetry repeats are held once. A
     # group's rows share one g row (their least-squares problems are the same),
     # and in h's fit a group counts as many times as it has rows.
     across, across_valid, across_groups, across_rows = _slab(model, grid, rows, every_col)
@@ -886,11 +891,13 @@ def _sampled_als(model, grid, terms, progress):
         h[:, :, k] = 0.1 * rng.standard_normal((3, len(grid.v))) * h[:, :, 0].mean(1,
                                                                                    keepdims=True)
     ridge = ALS_RIDGE if terms > 1 else 0.0
-    across_t = np.ascontiguousarray(across.transpose(0, 2, 1))
+    across_valid_t = np.ascontiguousarray(across_valid.T)
+    across_t = across_valid_t * across.transpose(0, 2, 1)  # w M, h's rows first
+    down = down_valid * down  # w M: the same in every round
     across_in_down = down_groups[across_rows]  # each across group's row of the compact g
     for round_ in range(SAMPLED_ROUNDS):
         g = _weighted_rows(down, down_valid, h[:, cols], ridge)
-        h = _weighted_rows(across_t, across_valid.T, g[:, across_in_down], ridge)
+        h = _weighted_rows(across_t, across_valid_t, g[:, across_in_down], ridge)
         report(progress, 0.3 + 0.7 * (round_ + 1) / SAMPLED_ROUNDS,
                f"sampled fit round {round_ + 1}/{SAMPLED_ROUNDS}")
     g = _weighted_rows(down, down_valid, h[:, cols], ridge)
