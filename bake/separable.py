@@ -734,7 +734,7 @@ def _sub_grid(size, count):
 
 #: Groups of rows whose second member _shared_rows evaluates to check that
 #: the model has the symmetry it is assumed to have.
-SHARED_ROW_CHECKS = 16
+SHARED_ROW_CHECKS = 64
 
 
 def _shared_rows(model, grid, rows, cols):

@@ -1,8 +1,11 @@
 """BRDF evaluation speed (issue: BRDF library): evaluations per second on 10^6 pairs.
 
-Prints, for GGX (isotropic and anisotropic), Ward, Kurt and an isotropic
-tabulated BRDF, the rate of ``model.f(wi, wo)`` on 10^6 random direction
-pairs (float64, RGB out), and the rate of a plain per-pair Python loop of the
+Prints, for GGX (isotropic and anisotropic), Ward, Kurt, an isotropic
+tabulated BRDF and Principled BSDFs as Blender's node makes them (metal,
+the default dielectric with its diffuse part, anisotropic metal, a coated
+mix: what From Material bakes, for lobe fits, lamp factors and tables), the
+rate of ``model.f(wi, wo)`` on 10^6 random direction pairs (float64, RGB
+out), and the rate of a plain per-pair Python loop of the
 GGX formula as the baseline. Target: >= 5e6 GGX evaluations per second on the
 2-core reference machine.
 
@@ -68,6 +71,10 @@ def main():
         "table 64x64x65 (from ggx)": IsotropicTable.from_model(brdf.parse("ggx:roughness=0.3"),
                                                                (64, 64, 65)),
     }
+    for spec in ("principled:metallic=1,roughness=0.1", "principled:roughness=0.5",
+                 "principled:metallic=1,roughness=0.3,anisotropy=0.8",
+                 "principled:roughness=0.2,metallic=0.3,coat_weight=0.6"):
+        models[spec] = brdf.parse(spec)
     print(f"{args.pairs} direction pairs, float64, RGB out, best of {args.repeat}")
     rates = {}
     for name, model in models.items():
