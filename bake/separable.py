@@ -726,9 +726,16 @@ SAMPLED_ROUNDS = 8
 
 def _sub_grid(size, count):
     """Flat indices of a count x count regular sub-grid of a size x size texture
-    (every texel when count >= size), centred in its strata."""
+    (every texel when count >= size): one texel in each stratum of ``size //
+    count`` texels, at its centre rounded up in the texture's first half and
+    mirrored in its second, so the sub-grid is its own mirror image across
+    both axes and its own half turn. A symmetric BRDF's equal rows then fall
+    within it (:func:`_shared_rows`: an isotropic BRDF's 64^2 sub-grid of a
+    256^2 g map holds 414 radii, an anisotropic lobe's half of its rows)."""
     stride = max(1, size // count)
     axis = np.arange(stride // 2, size, stride)
+    first = axis[2 * axis <= size - 1]
+    axis = np.union1d(first, size - 1 - first)
     return (axis[:, None] * size + axis[None, :]).ravel()
 
 
