@@ -357,6 +357,34 @@ def test_an_anisotropic_lobe_shares_rows_with_its_half_turn_partner(spec):
                                atol=1e-9 * np.abs(direct).max())
 
 
+@pytest.mark.parametrize("rotation, share", [(0.0, 4), (0.25, 4), (0.1, 2)])
+def test_an_aligned_anisotropic_lobe_is_evaluated_on_a_quarter_of_its_rows(monkeypatch,
+                                                                           rotation, share):
+    """Principled anisotropic metal aligned with the tangent (rotation 0 or a
+    quarter turn) is also its own mirror image: the mirrored half vector's row
+    is the row with the d map's rows flipped, so a quarter of the rows are
+    evaluated (half when turned 0.1); the slab, expanded, is the direct one."""
+    model = brdf.parse(f"principled:metallic=1,roughness=0.3,anisotropy=0.8,rotation={rotation}")
+    grid = separable._Grid("half-difference", 32, "xy", 16)
+    evaluated = []
+    direct_slab = separable._slab_direct
+
+    def counting(model, grid, rows, cols, *args):
+        evaluated.append(len(rows))
+        return direct_slab(model, grid, rows, cols, *args)
+
+    for rows, cols in ((np.arange(32 * 32), separable._sub_grid(16, 8)),
+                       (separable._sub_grid(32, 16), np.arange(16 * 16))):
+        monkeypatch.setattr(separable, "_slab_direct", counting)
+        values, valid, inverse, _ = separable._slab(model, grid, rows, cols)
+        monkeypatch.setattr(separable, "_slab_direct", direct_slab)
+        assert evaluated[-1] == len(rows) // share  # the slab's own rows (checks before)
+        direct, direct_valid = direct_slab(model, grid, rows, cols)
+        np.testing.assert_array_equal(valid[inverse], direct_valid)
+        np.testing.assert_allclose(values[:, inverse], direct, rtol=0,
+                                   atol=1e-9 * np.abs(direct).max())
+
+
 def test_a_table_without_the_symmetry_is_evaluated_row_by_row():
     """A tabulated anisotropic BRDF whose values change under a half turn: the
     check evaluates every row."""
