@@ -37,10 +37,13 @@ def normalize(v):
     v = np.asarray(v, dtype=np.float64)
     if v.shape[-1:] != (3,):
         norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    else:
-        norm = np.sqrt(v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]
-                       + v[..., 2] * v[..., 2])[..., None]
-    return v / np.where(norm > 0, norm, 1.0)
+        return v / np.where(norm > 0, norm, 1.0)
+    norm = np.sqrt(v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2])
+    safe = np.where(norm > 0, norm, 1.0)
+    out = np.empty(v.shape)
+    for k in range(3):  # component by component: long loops, not a (..., 1) broadcast
+        np.divide(v[..., k], safe, out=out[..., k])
+    return out
 
 
 def half_vector(wi, wo):
